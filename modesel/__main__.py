@@ -1,0 +1,3 @@
+from modesel.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,164 @@
+"""The one small interface every candidate family implements, and its registry.
+
+A family turns (field, count, parameters, context) into `count` shapes on the
+normalised span x = s/L in [0, 1], with first and second derivatives with
+respect to x (divide by L and L**2 for physical slopes and curvatures).
+Every shape satisfies phi(0) = phi'(0) = 0 for bending fields (phi(0) = 0 for
+torsion) and is scaled to phi(1) = 1 (unit tip value), like ElastoDyn's
+polynomials, so a generalised coordinate reads as the tip value of its shape.
+
+Use the front function `mode_shapes(field, family, count, context, **params)`.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from modesel.errors import ModeselError, unknown_name
+from modesel.modeset import FIELDS
+
+BENDING_FIELDS = ("tower_fa", "tower_ss", "blade_flap", "blade_edge")
+TORSION_FIELDS = ("tower_torsion",)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A continuous shape parameter a search may vary within [low, high]."""
+
+    name: str
+    default: float
+    low: float
+    high: float
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class FieldContext:
+    """What a family may need to know about the field it describes.
+
+    `beam` holds the distributed properties (needed by `fem`), `tip_mass` [kg]
+    and `tip_inertia` [kg m^2] the concentrated tip load (tower: rotor-nacelle
+    assembly), `rotor_speed` [rad/s] the speed for centrifugal stiffening of
+    blades, `hub_radius` [m] and `precone` [rad] for blades, `gravity` [m/s^2],
+    `elastodyn_coefficients` the deck's polynomial coefficients (x^2..x^6) per
+    mode for this field.
+    """
+
+    field: str
+    beam: object | None = None
+    tip_mass: float = 0.0
+    tip_inertia: float = 0.0
+    rotor_speed: float = 0.0
+    hub_radius: float = 0.0
+    precone: float = 0.0
+    gravity: float = 9.80665
+    elastodyn_coefficients: tuple = ()
+    source: str | None = None
+
+
+@dataclass(frozen=True)
+class ShapeSet:
+    """`count` shapes of one field sampled at normalised stations `x`.
+
+    phi, dphi, ddphi have shape (count, len(x)); derivatives are d/dx, d2/dx2.
+    """
+
+    field: str
+    family: str
+    x: np.ndarray
+    phi: np.ndarray
+    dphi: np.ndarray
+    ddphi: np.ndarray
+    params: dict = field(default_factory=dict)
+
+    @property
+    def count(self) -> int:
+        return self.phi.shape[0]
+
+
+class Family(ABC):
+    """A family of assumed modes. Subclasses set the class attributes and
+    implement `evaluate`."""
+
+    name: str = ""
+    description: str = ""
+    fields: tuple = BENDING_FIELDS
+    parameters: tuple = ()          # of Parameter
+    max_count: int | None = None
+
+    def shapes(self, x, count: int, context: FieldContext, **params) -> ShapeSet:
+        """Validate and evaluate; the one entry point callers use."""
+        if context.field not in FIELDS:
+            raise unknown_name("field", context.field, FIELDS, field="field")
+        if context.field not in self.fields:
+            raise ModeselError(f"family '{self.name}' does not describe field '{context.field}'"
+                               f" (it describes {', '.join(self.fields)})", field="family")
+        if not isinstance(count, (int, np.integer)) or isinstance(count, bool) or count < 1:
+            raise ModeselError(f"count must be an integer >= 1, got {count!r}", field="count")
+        if self.max_count is not None and count > self.max_count:
+            raise ModeselError(f"family '{self.name}' provides at most {self.max_count} modes"
+                               f" for this field, asked for {count}", field="count")
+        known = {p.name: p for p in self.parameters}
+        full = {p.name: p.default for p in self.parameters}
+        for key, value in params.items():
+            if key not in known:
+                raise unknown_name(f"parameter of family '{self.name}'", key, known or ["(none)"],
+                                   field="params")
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ModeselError(f"parameter '{key}' must be a number, got {value!r}",
+                                   field=f"params.{key}") from None
+            p = known[key]
+            if not (p.low <= value <= p.high):
+                raise ModeselError(f"parameter '{key}'={value:g} outside [{p.low:g}, {p.high:g}]",
+                                   field=f"params.{key}")
+            full[key] = value
+        x = np.asarray(x, dtype=float)
+        phi, dphi, ddphi = self.evaluate(x, int(count), context, full)
+        return ShapeSet(context.field, self.name, x, np.atleast_2d(phi), np.atleast_2d(dphi),
+                        np.atleast_2d(ddphi), full)
+
+    @abstractmethod
+    def evaluate(self, x: np.ndarray, count: int, context: FieldContext, params: dict):
+        """Return (phi, dphi, ddphi), each (count, len(x))."""
+
+
+_REGISTRY: dict[str, Family] = {}
+
+
+def register(family_cls):
+    """Class decorator: add a family to the registry under its `name`."""
+    inst = family_cls()
+    _REGISTRY[inst.name] = inst
+    return family_cls
+
+
+def get_family(name: str) -> Family:
+    from modesel import candidates  # noqa: F401  (imports every family module)
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise unknown_name("family", name, _REGISTRY) from None
+
+
+def families(field: str | None = None) -> list[Family]:
+    """All registered families, or those describing `field`."""
+    from modesel import candidates  # noqa: F401
+    return [f for f in _REGISTRY.values() if field is None or field in f.fields]
+
+
+def default_stations(n: int = 201) -> np.ndarray:
+    """Default normalised stations for sampling shapes."""
+    return np.linspace(0.0, 1.0, n)
+
+
+def mode_shapes(field: str, family: str, count: int, context: FieldContext | None = None,
+                x=None, **params) -> ShapeSet:
+    """Front function: `count` shapes of `family` for `field` at stations `x`."""
+    context = context or FieldContext(field)
+    if context.field != field:
+        raise ValueError("context.field must equal field")
+    return get_family(family).shapes(default_stations() if x is None else x, count, context, **params)

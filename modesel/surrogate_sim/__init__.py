@@ -1,0 +1,1 @@
+"""Reduced multibody simulation: turbine description, bodies, scenes, integration."""
