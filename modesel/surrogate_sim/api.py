@@ -93,7 +93,7 @@ def build(scene: Scene, modeset: ModeSet | None = None) -> Built:
                           gravity=bool(scene.effect("gravity")),
                           geometric_stiffening=bool(scene.effect("geometric_stiffening")),
                           rotor_speed_for_shapes=scene.constant_speed.get("GeAz", init.get("RotSpeed", 0.0)),
-                          pitch=init.get("BlPitch", 0.0))
+                          pitch=_collective(init.get("BlPitch", 0.0)))
     if not scene.effect("damping"):
         for b in model.system.flexible_bodies():
             if b.damping is not None:
@@ -129,6 +129,11 @@ def build(scene: Scene, modeset: ModeSet | None = None) -> Built:
     if "DrTr" in scene.free:
         effects.append(_drivetrain)
     return Built(scene, model, eq, q0, qd0, effects)
+
+
+def _collective(pitch) -> float:
+    """Collective pitch [rad] from a scalar or per-blade values (their mean)."""
+    return float(np.mean(np.atleast_1d(pitch)))
 
 
 def _bounds(built: Built) -> np.ndarray:

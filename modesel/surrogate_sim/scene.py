@@ -37,7 +37,19 @@ from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS, FieldModes, ModeSet
 
 TOP_KEYS = ("name", "description", "turbine", "tmax", "dt", "modes", "dofs", "initial", "effects",
-            "solver", "outputs")
+            "solver", "outputs", "overrides")
+# scene-level changes to the turbine: key -> (Turbine attribute, unit conversion to SI)
+OVERRIDES = {
+    "precone_deg": ("precone", "deg3"),
+    "shaft_tilt_deg": ("shaft_tilt", "deg"),
+    "tower_base_height": ("tower_base_height", None),
+    "platform_mass": ("platform_mass", None),
+    "platform_inertia": ("platform_inertia", "vec3"),
+    "platform_cm_z": ("platform_cm", "z"),
+    "platform_ref_z": ("platform_ref_z", None),
+    "generator_inertia": ("generator_inertia", None),
+    "nacelle_yaw_inertia": ("nacelle_yaw_inertia", None),
+}
 DOF_KEYS = ("free", "fixed", "constant_speed")
 RIGID = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
 INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
@@ -170,6 +182,10 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
     _check_keys(effects, EFFECT_KEYS, file, "effects")
     solver = data.get("solver", {})
     _check_keys(solver, SOLVER_KEYS, file, "solver")
+    over = data.get("overrides", {})
+    _check_keys(over, OVERRIDES, file, "overrides")
+    if over:
+        turbine = apply_overrides(turbine, over, file)
     return Scene(str(data.get("name", path.stem if path else "scene")), turbine, tmax, dt, modes, free, fixed,
                  speed, initial, dict(effects), dict(solver), file)
 
@@ -211,3 +227,25 @@ def scene_from_elastodyn(path: Path) -> Scene:
     return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
                  ModeSet(fields), tuple(free), fixed, speed, initial,
                  {"gravity": True, "geometric_stiffening": True, "damping": True}, {}, str(path))
+
+
+def apply_overrides(turbine, over: dict, file=None):
+    """Copy of `turbine` with scene overrides (see OVERRIDES) in SI units."""
+    import copy
+    t = copy.deepcopy(turbine)
+    for key, value in over.items():
+        attr, unit = OVERRIDES[key]
+        if unit == "vec3":
+            if not isinstance(value, list) or len(value) != 3:
+                raise ModeselError("must be a list of 3 numbers", file=file, field=f"overrides.{key}")
+            value = tuple(_number(v, file, f"overrides.{key}") for v in value)
+        else:
+            value = _number(value, file, f"overrides.{key}")
+        if unit == "deg":
+            value = np.deg2rad(value)
+        elif unit == "deg3":
+            value = tuple([np.deg2rad(value)] * t.num_blades)
+        elif unit == "z":
+            value = (0.0, 0.0, value)
+        setattr(t, attr, value)
+    return t

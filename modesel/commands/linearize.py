@@ -1,0 +1,57 @@
+"""`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json]`
+
+Natural frequencies [Hz], damping ratios and dominant-DOF labels of the
+scene linearised about its initial state (zero elastic deflection); with
+--rpm the rotor turns at each given constant speed (a Campbell sweep).
+"""
+from __future__ import annotations
+
+import json
+
+from modesel.commands._common import load_modeset
+from modesel.errors import ModeselError
+
+
+def register(sub):
+    p = sub.add_parser("linearize", help="natural frequencies, damping ratios and mode labels",
+                       description=__doc__.split("\n\n")[0])
+    p.add_argument("scene", help="TOML scene, ElastoDyn main file (.dat) or OpenFAST .fst")
+    p.add_argument("--modeset", help="mode-set JSON overriding the scene's shapes")
+    p.add_argument("--rpm", help="comma-separated rotor speeds [rpm] for a Campbell sweep")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run)
+
+
+def _parse_rpm(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ModeselError(f"--rpm must be comma-separated numbers, got {text!r}", field="--rpm") from None
+    if not values or any(v < 0 for v in values):
+        raise ModeselError(f"--rpm needs non-negative speeds, got {text!r}", field="--rpm")
+    return values
+
+
+def run(args) -> int:
+    from modesel.surrogate_sim.api import linearize_scene, load_scene
+    scene = load_scene(args.scene)
+    ms = load_modeset(args.modeset)
+    speeds = _parse_rpm(args.rpm) if args.rpm else [None]
+    results = []
+    for rpm in speeds:
+        modes, _ = linearize_scene(scene, ms, rpm=rpm)
+        results.append((rpm, [m.as_dict() for m in modes]))
+    if args.json:
+        if args.rpm:
+            out = {"campbell": [{"rpm": rpm, "modes": modes} for rpm, modes in results]}
+        else:
+            out = {"modes": results[0][1]}
+        print(json.dumps(out, indent=2))
+        return 0
+    for rpm, modes in results:
+        if rpm is not None:
+            print(f"rotor speed {rpm:g} rpm")
+        print(f"{'#':>3} {'frequency [Hz]':>15} {'damping [-]':>12}  label")
+        for i, m in enumerate(modes, 1):
+            print(f"{i:>3} {m['frequency_hz']:>15.5f} {m['damping_ratio']:>12.5f}  {m['label']}")
+    return 0
