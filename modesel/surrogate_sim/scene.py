@@ -48,6 +48,7 @@ OVERRIDES = {
     "platform_cm_z": ("platform_cm", "z"),
     "platform_ref_z": ("platform_ref_z", None),
     "generator_inertia": ("generator_inertia", None),
+    "hub_radius": ("hub_radius", "hub"),
     "nacelle_yaw_inertia": ("nacelle_yaw_inertia", None),
 }
 DOF_KEYS = ("free", "fixed", "constant_speed")
@@ -247,5 +248,7 @@ def apply_overrides(turbine, over: dict, file=None):
             value = tuple([np.deg2rad(value)] * t.num_blades)
         elif unit == "z":
             value = (0.0, 0.0, value)
+        elif unit == "hub":            # the blade root moves with the hub radius
+            t.blade.root_offset = value
         setattr(t, attr, value)
     return t
