@@ -33,6 +33,11 @@ class BeamProperties:
         fractions of critical (ElastoDyn gives percent; converted here).
     notes : documented defaults that were applied (e.g. torsion properties
         missing from the deck), one sentence each.
+    stiffness_tuners : {field: [t_1, t_2, ...]} ElastoDyn modal stiffness
+        tuners (FAStTunr, SSStTunr, FlStTunr): ElastoDyn multiplies the
+        generalised stiffness K_il of its own modes by sqrt(t_i t_l); they
+        apply to the deck's polynomial modes only. Empty when not given.
+    source : file the properties were read from, if any.
     """
 
     name: str
@@ -46,6 +51,8 @@ class BeamProperties:
     root_offset: float = 0.0
     damping_ratio: dict = field(default_factory=dict)
     notes: tuple = ()
+    stiffness_tuners: dict = field(default_factory=dict)
+    source: str | None = None
 
     @property
     def length(self) -> float:
