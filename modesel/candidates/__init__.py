@@ -8,7 +8,8 @@ from modesel.candidates.base import (  # noqa: F401
 )
 
 # Family modules register themselves on import (add yours here).
-FAMILY_MODULES = ()
+FAMILY_MODULES = ("polynomial", "cosine", "clamped", "relaxed_root", "relaxed_tipmass",
+                  "elastodyn", "linear", "sine", "fem")
 
 for _name in FAMILY_MODULES:
     __import__(f"modesel.candidates.{_name}")
