@@ -299,3 +299,18 @@ def test_missing_required_input(tmp_path):
     with pytest.raises(ModeselError) as err:
         read_elastodyn(main)
     assert err.value.file == str(main) and err.value.field == "NacMass"
+
+
+def test_deck_without_outlist_end_is_read(tmp_path):
+    """openfast_io loops forever on an OutList with no END line; the reader adds it."""
+    import shutil
+    from modesel.surrogate_sim.elastodyn import read_elastodyn
+    src = "tests/data/openfast_free_decay/tower_fa_ss_shaft"
+    for name in ("Spar_ED_ForED.dat", "NRELOffshrBsline5MW_Blade.dat",
+                 "NRELOffshrBsline5MW_Offshore_ElastoDyn_Tower.dat"):
+        shutil.copy(f"{src}/{name}", tmp_path / name)
+    deck = tmp_path / "Spar_ED_ForED.dat"
+    lines = [l for l in deck.read_text().splitlines() if not l.startswith("END")]
+    deck.write_text("\n".join(lines) + "\n")
+    turbine = read_elastodyn(deck)
+    assert turbine.tower_base_height == 20.0

@@ -502,7 +502,11 @@ class _Deck:
                 if self.outlist_at is None:
                     out += ["OutList", "END"]
                 else:
-                    out += self.lines[self.outlist_at:]
+                    rest = self.lines[self.outlist_at:]
+                    # openfast_io loops forever on an OutList without its END line
+                    if not any(line[:3].upper() == "END" for line in rest[1:]):
+                        rest = rest + ["END of input file (added by modesel: the deck had none)"]
+                    out += rest
             elif entry[1] in self.found:
                 self._check_value(entry[1])
                 out.append(self.lines[self.found[entry[1]][0]])

@@ -35,6 +35,13 @@ def skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
+def cross(a, b):
+    """Cross product of 3-vectors or (N,3) arrays (faster than np.cross)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def elementary_rotation(axis: int, angle: float) -> np.ndarray:
     """Rotation matrix (body -> parent) about x (0), y (1) or z (2)."""
     c, s = np.cos(angle), np.sin(angle)
@@ -164,7 +171,7 @@ class KaneEquations:
                 th = c @ q + off
                 thd = c @ qd
                 u = Q[:, axis]
-                al_rel += np.cross(w_rel, u) * thd
+                al_rel += cross(w_rel, u) * thd
                 w_rel = w_rel + u * thd
                 Jw_rel += np.outer(u, c)
                 Q = Q @ elementary_rotation(axis, th)
@@ -188,10 +195,10 @@ class KaneEquations:
             r = rp + rho
             w = wp + P @ w_rel
             Jw = Jwp + P @ Jw_rel
-            v = vp + np.cross(wp, rho) + rhod
+            v = vp + cross(wp, rho) + rhod
             Jv = Jvp - skew(rho) @ Jwp + Rp @ Jrho
-            a = ap + np.cross(alp, rho) + np.cross(wp, np.cross(wp, rho)) + 2.0 * np.cross(wp, rhod) + Rp @ acc_loc
-            al = alp + np.cross(wp, P @ w_rel) + P @ al_rel
+            a = ap + cross(alp, rho) + cross(wp, cross(wp, rho)) + 2.0 * cross(wp, rhod) + Rp @ acc_loc
+            al = alp + cross(wp, P @ w_rel) + P @ al_rel
             states.append(BodyState(r, R, v, w, Jv, Jw, a, al))
         return states
 
@@ -202,7 +209,7 @@ class KaneEquations:
         s, B_loc, _ = self._deformed(f, q, qd)
         p = s @ state.R.T
         B = np.einsum("ij,kjl->kil", state.R, B_loc)
-        vel = state.v + np.cross(state.w, p) + B @ qd[f.idx]
+        vel = state.v + cross(state.w, p) + B @ qd[f.idx]
         return state.r + p, vel, s
 
     @staticmethod
@@ -233,9 +240,9 @@ class KaneEquations:
                 p = st.R @ np.asarray(b.cm, float)
                 Ig = st.R @ np.asarray(b.inertia, float) @ st.R.T
                 JvG = st.Jv - skew(p) @ st.Jw
-                aG = st.a_bias + np.cross(st.alpha_bias, p) + np.cross(st.w, np.cross(st.w, p))
+                aG = st.a_bias + cross(st.alpha_bias, p) + cross(st.w, cross(st.w, p))
                 M += b.mass * JvG.T @ JvG + st.Jw.T @ Ig @ st.Jw                       # eq. 6-7
-                F += JvG.T @ (b.mass * (g - aG)) - st.Jw.T @ (Ig @ st.alpha_bias + np.cross(st.w, Ig @ st.w))
+                F += JvG.T @ (b.mass * (g - aG)) - st.Jw.T @ (Ig @ st.alpha_bias + cross(st.w, Ig @ st.w))
                 continue
             self._flexible(b, f, st, q, qd, M, F, g, None if node_forces is None else node_forces.get(b.name))
         return M, F
@@ -251,7 +258,7 @@ class KaneEquations:
         qde = qd[f.idx]
         pd = B @ qde if ne else np.zeros_like(p)             # elastic velocity (N,3)
         w, al = st.w, st.alpha_bias
-        a_nodes = (st.a_bias + np.cross(al, p) + np.cross(w, np.cross(w, p)) + 2.0 * np.cross(w, pd)
+        a_nodes = (st.a_bias + cross(al, p) + cross(w, cross(w, p)) + 2.0 * cross(w, pd)
                    + acc_loc @ R.T)
         m = f.m
         load = m[:, None] * (g - a_nodes)
@@ -266,11 +273,11 @@ class KaneEquations:
         Mb[3:6, 3:6] = (m @ np.einsum("ki,ki->k", p, p)) * _E - (p * m[:, None]).T @ p
         fy = np.zeros(6 + ne)
         fy[0:3] = load.sum(axis=0)
-        fy[3:6] = np.cross(p, load).sum(axis=0)
+        fy[3:6] = cross(p, load).sum(axis=0)
         if ne:
             mB = m[:, None, None] * B
             Ct = mB.sum(axis=0)                                             # (3,ne)  C_t^T
-            Cr = np.einsum("kij,kjl->il", np.array([skew(pk) for pk in p]), mB)  # (3,ne) C_r^T
+            Cr = cross(p[:, :, None].transpose(0, 2, 1), mB.transpose(0, 2, 1)).sum(axis=0).T  # C_r^T
             Mb[0:3, 6:] = Ct
             Mb[6:, 0:3] = Ct.T
             Mb[3:6, 6:] = Cr
