@@ -1,0 +1,81 @@
+"""Quasi-steady tower drag per unit length (second paper, eq. 51).
+
+    p = 1/2 rho Cd(z) d(z) |v_rel| v_rel,      v_rel = v_wind - v_tower
+
+Eq. 51 prints the magnitude |v_w|^2; the vector form |v_rel| v_rel used here
+has that magnitude and keeps the direction (and sign) of the relative flow,
+so a tower moving downwind faster than the wind is pushed back. Only the
+components normal to the (undeflected, vertical) tower axis load the tower:
+for 3-component velocities the vertical component is discarded.
+
+Diameter and drag coefficient come from the AeroDyn table (TwrElev [m above
+ground / MSL], TwrDiam [m], TwrCd [-]), linearly interpolated and held
+constant beyond the table ends. Without a table, `TowerDrag.nrel5mw_default`
+gives the NREL 5-MW values (diameter 6 m at the base to 3.87 m at the top,
+Cd = 1.0; Jonkman et al. 2009, NREL/TP-500-38060).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from modesel.errors import ModeselError
+
+
+@dataclass
+class TowerDrag:
+    """Tower diameter / drag-coefficient table and the eq. 51 load."""
+
+    elevation: np.ndarray
+    diameter: np.ndarray
+    drag_coefficient: np.ndarray
+    source: str | None = None
+
+    def __post_init__(self):
+        self.elevation = np.asarray(self.elevation, float)
+        self.diameter = np.asarray(self.diameter, float)
+        self.drag_coefficient = np.asarray(self.drag_coefficient, float)
+        n = self.elevation.size
+        if n < 1 or self.diameter.shape != (n,) or self.drag_coefficient.shape != (n,):
+            raise ModeselError("TwrElev, TwrDiam and TwrCd need the same number of rows (>= 1)",
+                               file=self.source, field="TwrElev")
+        if np.any(np.diff(self.elevation) <= 0):
+            raise ModeselError("tower elevations must be strictly increasing",
+                               file=self.source, field="TwrElev")
+        if np.any(self.diameter < 0) or np.any(self.drag_coefficient < 0):
+            raise ModeselError("tower diameter and drag coefficient must be >= 0",
+                               file=self.source, field="TwrDiam")
+
+    @classmethod
+    def nrel5mw_default(cls, tower_height: float = 87.6, base_height: float = 0.0):
+        """NREL 5-MW tower: 6 m at the base, 3.87 m at the top, Cd = 1.0."""
+        return cls(elevation=np.array([base_height, tower_height]),
+                   diameter=np.array([6.0, 3.87]), drag_coefficient=np.array([1.0, 1.0]),
+                   source="NREL 5-MW default (NREL/TP-500-38060)")
+
+    def properties(self, z):
+        """(diameter [m], Cd [-]) at elevations `z` [m]."""
+        z = np.asarray(z, float)
+        return (np.interp(z, self.elevation, self.diameter),
+                np.interp(z, self.elevation, self.drag_coefficient))
+
+    def load(self, z, wind_velocity, tower_velocity=0.0, air_density: float = 1.225):
+        """Drag force per unit tower length [N/m], eq. 51.
+
+        z : (...) elevations [m].
+        wind_velocity, tower_velocity : (...) speeds along x [m/s], or (..., 2)
+            / (..., 3) vectors (shape z.shape + (k,)) in the ElastoDyn axes
+            (x downwind, y left, z up); the z component is ignored.
+        Returns an array of the same shape as the (broadcast) velocities,
+        with a zero z component for 3-vectors.
+        """
+        v_rel = np.asarray(wind_velocity, float) - np.asarray(tower_velocity, float)
+        d, cd = self.properties(z)
+        if v_rel.ndim == np.ndim(z) + 1 and v_rel.shape[-1] in (2, 3):
+            normal = v_rel.copy()
+            if normal.shape[-1] == 3:
+                normal[..., 2] = 0.0
+            speed = np.sqrt(np.sum(normal * normal, axis=-1))
+            return (0.5 * air_density * cd * d * speed)[..., None] * normal
+        return 0.5 * air_density * cd * d * np.abs(v_rel) * v_rel
