@@ -1,0 +1,110 @@
+"""`modesel run STUDY.toml --out DIR`: search the cheapest mode set meeting the
+tolerance and write trials.csv, pareto.csv, best_modeset.json and report.html
+into DIR.
+
+Options override the study file: --n-trials, --timeout [s], --n-jobs
+(parallel processes), --storage (SQLAlchemy URL shared with `modesel worker`;
+default: an Optuna journal file in DIR), --seed. Running again with the same
+--out resumes the study: finished trials are kept, interrupted ones are
+queued again, and --n-trials more are run.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from modesel.commands._common import positive_float
+from modesel.errors import ModeselError
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
+def register(subparsers):
+    p = subparsers.add_parser(
+        "run", help="search the cheapest mode set meeting a tolerance",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("study", help="study file (TOML)")
+    p.add_argument("--out", required=True, help="output folder (created; reused to resume)")
+    p.add_argument("--n-trials", type=positive_int, help="trials to run now (default [budget].n_trials)")
+    p.add_argument("--timeout", type=positive_float, help="stop starting trials after S seconds")
+    p.add_argument("--n-jobs", type=positive_int, help="parallel worker processes")
+    p.add_argument("--storage", help="SQLAlchemy URL of a shared study storage")
+    p.add_argument("--seed", type=non_negative_int, help="sampler seed")
+    p.set_defaults(func=run)
+
+
+def prepare_out_dir(path) -> Path:
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ModeselError(f"cannot create output folder: {exc.strerror}", file=str(out)) from None
+    if not out.is_dir() or not os.access(out, os.W_OK | os.X_OK):
+        raise ModeselError("output folder is not writable", file=str(out))
+    return out
+
+
+def _say(msg: str) -> None:
+    print(f"modesel: {msg}", file=sys.stderr)
+
+
+def run(args, engine=None) -> int:
+    from modesel.report import refresh
+    from modesel.results import write_run_info
+    from modesel.search import default_storage, mask_url, run_search
+    from modesel.study import load_study
+
+    study = load_study(args.study)
+    out = prepare_out_dir(args.out)
+    storage = args.storage or study.run.storage or default_storage(out)
+    info = {"study_file": str(study.path), "study_toml": study.text, "study_name": study.name,
+            "storage": storage}
+    write_run_info(out, info)
+    try:
+        outcome = run_search(study, out_dir=out, storage=storage, n_trials=args.n_trials,
+                             timeout=args.timeout, n_jobs=args.n_jobs, seed=args.seed, engine=engine,
+                             log=_say)
+    except KeyboardInterrupt:   # keep what was done: results of the finished trials
+        try:
+            refresh(out, engine=engine)
+            _say(f"interrupted; results of the finished trials are in {out}; run again to resume")
+        except (ModeselError, KeyboardInterrupt):
+            pass
+        raise
+    write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
+    summary = refresh(out, engine=engine, log=_say)
+    total = len(outcome.optuna_study.get_trials(deepcopy=False))
+    print(f"{study.name}: {outcome.n_new} new trials ({total} in the study"
+          + (f", {outcome.requeued} interrupted re-queued" if outcome.requeued else "")
+          + f"); storage {mask_url(storage)}")
+    for name, ref in outcome.references.items():
+        if ref.info.get("kind") == "internal":
+            counts = " ".join(f"{f}={ref.info['family']}:{n}" for f, n in ref.info["counts"].items())
+            print(f"internal reference of scene '{name}': {counts} (converged to "
+                  f"{ref.info['tolerance']:g})")
+    for sentence in summary["sentences"]:
+        print(sentence)
+    best = summary["best"]
+    print(f"best: {best.get('label', '-')} ({best['selection']})")
+    print(f"wrote {out / 'trials.csv'}, pareto.csv, best_modeset.json, report.html")
+    return 0

@@ -1,0 +1,177 @@
+"""Results files, report.html and the run/report/worker commands (through
+modesel.cli.main) on the fake problem of test_search.py."""
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import modesel.search
+from modesel.cli import main
+from test_search import FAKE_ENGINE, make_study
+
+
+@pytest.fixture(autouse=True)
+def fake_engine(monkeypatch):
+    monkeypatch.setattr(modesel.search, "default_engine", lambda: FAKE_ENGINE)
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """One `modesel run` of 25 sets, shared by the read-only tests."""
+    folder = tmp_path_factory.mktemp("run")
+    study = make_study(folder, n_trials=25)
+    mp = pytest.MonkeyPatch()
+    mp.setattr(modesel.search, "default_engine", lambda: FAKE_ENGINE)
+    try:
+        assert main(["run", str(study), "--out", str(folder / "out")]) == 0
+    finally:
+        mp.undo()
+    return folder / "out"
+
+
+def test_trials_csv_is_ranked_with_the_documented_columns(finished):
+    df = pd.read_csv(finished / "trials.csv")
+    for col in ("rank", "trial", "modeset", "tower_fa_family", "tower_fa_count", "blade_flap_family",
+                "blade_flap_count", "n_dofs", "error", "error_TTDspFA", "error_OoPDefl1", "wall_time_s",
+                "speed", "meets_tolerance", "status", "reason"):
+        assert col in df.columns, col
+    assert list(df["rank"]) == list(range(1, len(df) + 1))
+    assert len(df) == 25 and df["modeset"].is_unique          # one row per evaluated set
+    meets = df[df["meets_tolerance"]]
+    assert meets["rank"].max() < df[~df["meets_tolerance"]]["rank"].min()
+    assert list(meets["cost"]) == sorted(meets["cost"])
+    rest = df[~df["meets_tolerance"]]
+    assert list(rest["error"]) == sorted(rest["error"])
+    # the error is the worst channel
+    np.testing.assert_allclose(df["error"], df[["error_TTDspFA", "error_OoPDefl1"]].max(axis=1))
+    # labels are ModeSet.label() and agree with the family/count columns
+    row = df.iloc[0]
+    assert row["modeset"] == (f"tower_fa={row['tower_fa_family']}:{row['tower_fa_count']} "
+                              f"blade_flap={row['blade_flap_family']}:{row['blade_flap_count']}")
+
+
+def test_pareto_csv_is_the_non_dominated_set(finished):
+    trials = pd.read_csv(finished / "trials.csv")
+    front = pd.read_csv(finished / "pareto.csv")
+    assert list(front["cost"]) == sorted(front["cost"])
+    assert list(front["error"]) == sorted(front["error"], reverse=True)
+    for _, r in trials.iterrows():
+        dominated = ((front["cost"] <= r["cost"]) & (front["error"] <= r["error"])).any()
+        assert dominated
+    for _, f in front.iterrows():
+        better = trials[(trials["cost"] <= f["cost"]) & (trials["error"] < f["error"])]
+        assert better.empty
+
+
+def test_best_modeset_is_the_cheapest_meeting_tolerance(finished):
+    best = json.loads((finished / "best_modeset.json").read_text())
+    trials = pd.read_csv(finished / "trials.csv")
+    meets = trials[trials["meets_tolerance"]].sort_values(["cost", "n_dofs", "error"])
+    assert best["selection"] == "cheapest set meeting the tolerance"
+    assert best["label"] == meets.iloc[0]["modeset"] and best["trial"] == meets.iloc[0]["trial"]
+    assert best["meets_tolerance"] is True and best["error"] <= best["tolerance"] == 0.035
+    from modesel.modeset import ModeSet
+    assert ModeSet.from_dict(best).label() == best["label"]
+
+
+def test_report_is_self_contained_and_states_each_tolerance(finished):
+    text = (finished / "report.html").read_text()
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", text)
+    assert "http" not in text                                  # not even namespace URIs
+    assert "<script" not in text and "<link" not in text
+    trials = pd.read_csv(finished / "trials.csv")
+    cheapest = trials[trials["error"] <= 0.035].sort_values(["cost", "n_dofs", "error"]).iloc[0]
+    tight = trials[trials["error"] <= 0.01].sort_values(["cost", "n_dofs", "error"]).iloc[0]
+    per_s = cheapest["wall_time_s"] / cheapest["simulated_time_s"]
+    assert (f"3.5 % needs {cheapest['modeset']} ({cheapest['n_dofs']} DOFs, {per_s:.3g} s per simulated s)."
+            in text)
+    ratio = tight["cost"] / cheapest["cost"]
+    assert re.search(rf"1 % needs {re.escape(tight['modeset'])} \({tight['n_dofs']} DOFs, [0-9.e-]+ s per "
+                     rf"simulated s\) at {ratio:.3g} times the cost\.", text)
+    assert text.count("<svg") == 4         # Pareto, history, one scene's series, shapes
+
+
+def test_report_rerenders_from_storage(finished, capsys):
+    before = pd.read_csv(finished / "trials.csv")
+    (finished / "trials.csv").unlink()
+    (finished / "report.html").unlink()
+    for path in (finished / "timeseries").glob("trial_*.csv"):
+        path.unlink()
+    assert main(["report", str(finished)]) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(finished / "trials.csv"), before)
+    assert (finished / "report.html").exists()
+    # the featured sets were simulated again for the overlays
+    assert "simulating again trials" in capsys.readouterr().err
+    assert len(list((finished / "timeseries").glob("trial_*.csv"))) >= 2
+
+
+def test_failed_trials_and_unmet_levels_in_the_report(tmp_path, capsys):
+    study = make_study(tmp_path, tower_families='["test_exact", "test_unstable"]', n_trials=8)
+    study.write_text(study.read_text().replace("levels = [0.01]", "levels = [0.01, 1e-9]"))
+    assert main(["run", str(study), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "0.0000001 % is not met by any of the" in out or "1e-07 % is not met by any of the" in out
+    text = (tmp_path / "out/report.html").read_text()
+    assert "Failed trials" in text and "diverged at t=3.25 s" in text
+    trials = pd.read_csv(tmp_path / "out/trials.csv")
+    failed = trials[trials["status"] == "FAIL"]
+    assert not failed.empty and failed["reason"].str.contains("beyond bounds").all()
+    assert failed["rank"].min() > trials[trials["status"] == "COMPLETE"]["rank"].max()
+
+
+def test_run_twice_resumes(tmp_path, capsys):
+    study = make_study(tmp_path, n_trials=5)
+    out = tmp_path / "out"
+    assert main(["run", str(study), "--out", str(out)]) == 0
+    assert main(["run", str(study), "--out", str(out), "--seed", "3"]) == 0
+    assert "5 new trials" in capsys.readouterr().out
+    assert len(pd.read_csv(out / "trials.csv")) == 10
+
+
+def test_worker_with_sqlite_then_report(tmp_path, capsys):
+    study = make_study(tmp_path, n_trials=3)
+    url = f"sqlite:///{tmp_path / 'shared.db'}"
+    assert main(["worker", str(study), "--storage", url]) == 0
+    assert main(["worker", str(study), "--storage", url, "--n-trials", "2"]) == 0
+    assert "2 trials run by this worker" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert main(["run", str(study), "--out", str(out), "--storage", url, "--n-trials", "1"]) == 0
+    trials = pd.read_csv(out / "trials.csv")
+    assert len(trials) == 6
+    assert json.loads((out / "run.json").read_text())["storage"] == url
+    # the workers kept no time series: the featured sets were simulated again for the report
+    assert "simulating again trials" in capsys.readouterr().err
+    assert (out / "report.html").read_text().count("<svg") == 4
+
+
+@pytest.mark.parametrize("make_args, pattern", [
+    (lambda d, s: ["run", str(s), "--out", str(d / "out")], r"study\.toml: not valid TOML: .*\(at line 3"),
+    (lambda d, s: ["run", str(s), "--out", str(d / "file.txt" / "out")], r"cannot create output folder"),
+    (lambda d, s: ["run", str(s), "--out", str(d / "out"), "--storage", "postgresql://u:pw@127.0.0.1:1/x"],
+     r"postgresql://u:\*\*\*@127\.0\.0\.1:1/x: cannot open storage"),
+    (lambda d, s: ["report", str(d)], r"not a modesel output folder \(no run\.json\)"),
+    (lambda d, s: ["worker", str(s), "--storage", f"sqlite:///{d / 'none' / 'x.db'}"], r"cannot open storage"),
+])
+def test_cli_errors_are_one_line_and_exit_2(tmp_path, capsys, make_args, pattern):
+    study = make_study(tmp_path, n_trials=2)
+    (tmp_path / "file.txt").write_text("x")
+    if "TOML" in pattern:
+        study.write_text("[study]\nname = 'x'\n[[scene]\n")
+    assert main(make_args(tmp_path, study)) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("modesel: error: ") and err.count("\n") == 1, err
+    assert re.search(pattern, err), err
+    assert "pw" not in err
+
+
+def test_cli_unknown_key_is_one_line(tmp_path, capsys):
+    study = make_study(tmp_path, n_trials=2)
+    study.write_text(study.read_text().replace("n_trials = 2", "n_trails = 2"))
+    assert main(["run", str(study), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "budget.n_trails: unknown key 'n_trails' (did you mean 'n_trials'?)" in err
+    assert err.count("\n") == 1

@@ -1,0 +1,398 @@
+"""The search orchestrator on a fake problem whose answer is known by enumeration.
+
+The fake engine (also used by test_report.py) stands in for the simulator:
+each active field responds as a sum of damped sines, mode k of a family
+capturing harmonic k of the "true" response, so the error falls as modes are
+added; its wall time grows with the DOF count. Family `test_exact` captures
+harmonics exactly; `test_rich` captures one more harmonic per mode but with a
+0.5 % frequency bias (cheap at loose tolerances, floored at tight ones);
+`test_unstable` always diverges.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import optuna
+import pandas as pd
+import pytest
+
+from modesel.candidates.base import BENDING_FIELDS, Family, Parameter, register
+from modesel.errors import ModeselError, SimulationDiverged
+from modesel.modeset import FieldModes, ModeSet
+from modesel.search import Engine, Objective, SearchSpace, load_scenes, prepare_references, run_search
+from modesel.study import parse_study
+
+# ------------------------------------------------------------------ fake families (unit-tip monomials)
+
+
+class _Monomials(Family):
+    fields = BENDING_FIELDS
+
+    def evaluate(self, x, count, context, params):
+        k = np.arange(2, count + 2)[:, None]
+        return x ** k, k * x ** (k - 1), k * (k - 1) * x ** np.maximum(k - 2, 0)
+
+
+@register
+class TestExact(_Monomials):
+    name = "test_exact"
+    description = "fake family for tests: mode k = harmonic k, exact"
+    max_count = 10
+
+
+@register
+class TestRich(_Monomials):
+    name = "test_rich"
+    description = "fake family for tests: mode k = harmonics up to k+1, 0.5 % frequency bias"
+    max_count = 4
+    parameters = (Parameter("stretch", 1.0, 0.9, 1.1, "frequency scale"),)
+
+
+@register
+class TestUnstable(_Monomials):
+    name = "test_unstable"
+    description = "fake family for tests: always diverges"
+    max_count = 3
+
+
+# ------------------------------------------------------------------ fake engine
+
+CHANNEL = {"tower_fa": "TTDspFA", "blade_flap": "OoPDefl1"}
+BASE_HZ = {"tower_fa": 0.3, "blade_flap": 0.7}
+N_HARMONICS = 9
+RATIO = 0.3          # amplitude of harmonic k = RATIO**(k-1)
+
+
+@dataclass
+class FakeScene:
+    name: str
+    path: str
+    tmax: float = 20.0
+    dt: float = 0.05
+    fields: tuple = ("tower_fa", "blade_flap")
+    default_modeset: ModeSet = field(default_factory=lambda: ModeSet(
+        {"tower_fa": FieldModes("test_exact", 1), "blade_flap": FieldModes("test_exact", 1)}))
+
+
+@dataclass
+class FakeResult:
+    outputs: pd.DataFrame
+    n_dofs: int
+    wall_time_s: float
+    simulated_time_s: float
+
+    @property
+    def speed(self):
+        return self.simulated_time_s / self.wall_time_s
+
+
+def fake_load_scene(path):
+    path = Path(path)
+    if not path.exists():
+        raise ModeselError("scene file not found", file=str(path))
+    return FakeScene(path.stem, str(path))
+
+
+def response(fld: str, t, harmonics: int, bias: float = 0.0, stretch: float = 1.0):
+    """Sum of the first `harmonics` damped sines of field `fld`."""
+    y = np.zeros_like(t)
+    for k in range(1, harmonics + 1):
+        w = 2 * np.pi * BASE_HZ[fld] * (2 * k - 1) * (1 + bias) * stretch
+        y += RATIO ** (k - 1) * np.exp(-0.02 * w * t) * np.cos(w * t)
+    return y
+
+
+def fake_simulate(scene, modeset=None, *, tmax=None, dt=None):
+    tmax = scene.tmax if tmax is None else tmax
+    dt = scene.dt if dt is None else dt
+    t = np.arange(0.0, tmax + 0.5 * dt, dt)
+    out = {"Time": t}
+    n_dofs = 1
+    for fld in scene.fields:
+        fm = modeset[fld] if modeset is not None and fld in modeset else scene.default_modeset[fld]
+        n_dofs += fm.count
+        if fm.family == "test_unstable":
+            raise SimulationDiverged(f"{fld} coordinate beyond bounds", time=3.25)
+        if fm.family == "test_rich":
+            out[CHANNEL[fld]] = response(fld, t, fm.count + 1, bias=0.005,
+                                         stretch=fm.params.get("stretch", 1.0))
+        else:
+            out[CHANNEL[fld]] = response(fld, t, fm.count)
+    return FakeResult(pd.DataFrame(out), n_dofs, 1e-3 * n_dofs ** 2, float(t[-1]))
+
+
+FAKE_ENGINE = Engine(fake_load_scene, fake_simulate)
+
+
+def write_reference_csv(path: Path, tmax=20.0, dt=0.01):
+    """The 'true' response: every harmonic, exact, on a finer grid."""
+    t = np.arange(0.0, tmax + 0.5 * dt, dt)
+    pd.DataFrame({"Time [s]": t, "TTDspFA [m]": response("tower_fa", t, N_HARMONICS),
+                  "OoPDefl1 [m]": response("blade_flap", t, N_HARMONICS)}).to_csv(path, index=False)
+
+
+STUDY_TOML = """
+[study]
+name = "fake"
+[[scene]]
+path = "scene.toml"
+reference = "reference.csv"
+[reference]
+kind = "csv"
+[compare]
+channels = {{ TTDspFA = 1.0, OoPDefl1 = 1.0 }}
+tolerance = 0.035
+levels = [0.01]
+[search]
+sampler = "tpe"
+[search.fields.tower_fa]
+families = {tower_families}
+max_count = 5
+[search.fields.blade_flap]
+families = ["test_exact"]
+max_count = 5
+[budget]
+n_trials = {n_trials}
+stop_when_met = {stop}
+[run]
+seed = 0
+"""
+
+
+def make_study(folder: Path, *, tower_families='["test_exact", "test_rich"]', n_trials=40,
+               stop="false", extra="") -> Path:
+    (folder / "scene.toml").write_text("# fake scene\n")
+    write_reference_csv(folder / "reference.csv")
+    path = folder / "study.toml"
+    path.write_text(STUDY_TOML.format(tower_families=tower_families, n_trials=n_trials, stop=stop) + extra)
+    return path
+
+
+def load(path: Path):
+    return parse_study(path.read_text(), path)
+
+
+def all_sets(study):
+    """Every discrete mode set of the study's space (no continuous parameters)."""
+    sets = [{}]
+    for space in study.search.fields:
+        sets = [dict(s, **{space.field: FieldModes(f.family, c)})
+                for s in sets for f in space.families for c in range(f.min_count, f.max_count + 1)]
+    return [ModeSet(s) for s in sets]
+
+
+def distinct(trials):
+    """Trials that evaluated a set (not repeats served from an earlier record)."""
+    return [t for t in trials if "duplicate_of" not in t.user_attrs]
+
+
+# ------------------------------------------------------------------ tests
+
+
+def test_error_falls_with_modes_and_cost_grows_with_dofs(tmp_path):
+    study = load(make_study(tmp_path))
+    scenes = load_scenes(study, FAKE_ENGINE)
+    objective = Objective(study, scenes, prepare_references(study, scenes, FAKE_ENGINE), FAKE_ENGINE)
+    errors = [objective.evaluate(ModeSet({"tower_fa": FieldModes("test_exact", n),
+                                          "blade_flap": FieldModes("test_exact", n)}))
+              for n in range(1, 6)]
+    assert all(a["error"] > b["error"] for a, b in zip(errors, errors[1:]))
+    assert all(a["cost"] < b["cost"] for a, b in zip(errors, errors[1:]))
+    # n modes leave harmonics n+1.. out: the worst channel error is the nrmse
+    # of the omitted tail, which shrinks by about RATIO per extra mode
+    ratios = [b["error"] / a["error"] for a, b in zip(errors, errors[1:])]
+    assert all(0.2 < r < 0.45 for r in ratios), ratios
+
+
+def test_search_finds_the_cheapest_set_meeting_tolerance(tmp_path):
+    study = load(make_study(tmp_path, n_trials=40))
+    scenes = load_scenes(study, FAKE_ENGINE)
+    objective = Objective(study, scenes, prepare_references(study, scenes, FAKE_ENGINE), FAKE_ENGINE)
+    truth = [objective.evaluate(ms) for ms in all_sets(study)]
+    meeting = [r for r in truth if r["error"] <= study.compare.tolerance]
+    cheapest = min(meeting, key=lambda r: (r["cost"], r["error"]))
+    # the fake problem has a unique cheapest answer, and it is not trivial
+    assert sum(r["cost"] == cheapest["cost"] for r in meeting) == 1
+    assert cheapest["modeset"] != "tower_fa=test_exact:1 blade_flap=test_exact:1"
+
+    outcome = run_search(study, out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    trials = outcome.optuna_study.trials
+    assert outcome.n_new == len(distinct(trials)) == 40   # repeats of a set do not use the budget
+    assert outcome.baseline and trials[0].user_attrs["modeset"] == \
+        "tower_fa=test_exact:1 blade_flap=test_exact:1"    # the scene default is tried first
+    found = [t for t in distinct(trials) if t.state == optuna.trial.TrialState.COMPLETE
+             and t.user_attrs["meets_tolerance"]]
+    best = min(found, key=lambda t: (t.user_attrs["cost"], t.user_attrs["error"]))
+    assert best.user_attrs["modeset"] == cheapest["modeset"]
+    assert best.values[0] == pytest.approx(cheapest["error"], rel=1e-12)
+    # recorded attributes
+    a = best.user_attrs
+    assert set(a["errors"]) == {"TTDspFA", "OoPDefl1"}
+    assert a["n_dofs"] == 1 + sum(m.count for m in ModeSet.from_dict(a["modeset_json"]).fields.values())
+    assert a["wall_time_s"] == pytest.approx(1e-3 * a["n_dofs"] ** 2)
+    assert a["speed"] == pytest.approx(20.0 / a["wall_time_s"])
+
+
+def test_stop_when_met_stops_after_keep_searching_trials(tmp_path):
+    path = make_study(tmp_path, n_trials=60, stop="true",
+                      extra="")
+    text = path.read_text().replace("stop_when_met = true", "stop_when_met = true\nkeep_searching_trials = 3")
+    path.write_text(text)
+    study = load(path)
+    outcome = run_search(study, out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    trials = outcome.optuna_study.trials
+    meets = [t.number for t in trials if t.user_attrs.get("meets_tolerance")]
+    assert meets, "the fake problem is solvable within the budget"
+    after = distinct(t for t in trials if t.number > meets[0])
+    assert len(after) == 3 and trials[-1] in after and len(distinct(trials)) < 60
+
+
+def test_failing_trial_is_recorded_and_the_study_continues(tmp_path):
+    study = load(make_study(tmp_path, tower_families='["test_exact", "test_unstable"]', n_trials=15))
+    outcome = run_search(study, out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    trials = outcome.optuna_study.trials
+    assert len(distinct(trials)) == 15
+    failed = [t for t in trials if t.state == optuna.trial.TrialState.FAIL]
+    done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
+    assert failed and done
+    for t in failed:
+        assert t.params["tower_fa.family"] == "test_unstable"
+        record = trials[t.user_attrs.get("duplicate_of", t.number)].user_attrs
+        assert "diverged at t=3.25 s" in record["fail_reason"]
+        assert "beyond bounds" in record["fail_reason"]
+        assert record["failed_scene"] == "scene"
+        assert record["failed_at_s"] == 3.25
+    assert all(t.params["tower_fa.family"] == "test_exact" for t in done)
+
+
+class CountingSimulate:
+    """Picklable simulate wrapper counting calls per mode set label."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __call__(self, scene, modeset=None, *, tmax=None, dt=None):
+        if modeset is not None:          # None: the untimed warm-up run of the scene default
+            self.calls.append(modeset.label())
+        return fake_simulate(scene, modeset, tmax=tmax, dt=dt)
+
+
+def test_resume_adds_trials_without_repeating(tmp_path):
+    study = load(make_study(tmp_path, n_trials=5))
+    out = tmp_path / "out"
+    sim = CountingSimulate()
+    engine = Engine(fake_load_scene, sim)
+    first = run_search(study, out_dir=out, engine=engine, progress=False).optuna_study
+    before = {t.number: (t.params, t.values) for t in first.trials}
+    assert len(distinct(first.trials)) == 5
+    second = run_search(study, out_dir=out, engine=engine, progress=False).optuna_study
+    trials = second.trials
+    assert [t.number for t in trials] == list(range(len(trials)))
+    assert len(distinct(trials)) == 10
+    for number, (params, values) in before.items():   # the first run's trials are kept as they were
+        assert (trials[number].params, trials[number].values) == (params, values)
+    # no mode set was simulated twice; repeats were served from the earlier record
+    assert len(sim.calls) == len(set(sim.calls)) == 10
+    for t in trials:
+        if "duplicate_of" in t.user_attrs:
+            original = trials[t.user_attrs["duplicate_of"]]
+            assert original.user_attrs["modeset"] == t.user_attrs["modeset"]
+            assert tuple(t.values) == tuple(original.values)
+
+
+def test_interrupted_trial_is_queued_again(tmp_path):
+    study = load(make_study(tmp_path, n_trials=3))
+    out = tmp_path / "out"
+    first = run_search(study, out_dir=out, engine=FAKE_ENGINE, progress=False).optuna_study
+    # a trial left RUNNING, as after a kill -9
+    stuck = first.ask()
+    SearchSpace(study.search).suggest(stuck)
+    params = dict(stuck.params)
+    outcome = run_search(study, out_dir=out, n_trials=2, engine=FAKE_ENGINE, progress=False)
+    trials = outcome.optuna_study.trials
+    assert outcome.requeued == 1
+    assert trials[stuck.number].state == optuna.trial.TrialState.FAIL
+    assert trials[stuck.number].user_attrs["fail_reason"] == "interrupted"
+    assert trials[stuck.number + 1].params == params
+    assert trials[stuck.number + 1].state == optuna.trial.TrialState.COMPLETE
+
+
+def test_continuous_parameters_are_searched_within_range(tmp_path):
+    path = make_study(tmp_path, n_trials=12, extra="""
+[search.fields.tower_fa.params.test_rich]
+stretch = [0.95, 1.05]
+""")
+    study = load(path)
+    outcome = run_search(study, out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    rich = [t for t in outcome.optuna_study.trials if t.params["tower_fa.family"] == "test_rich"]
+    assert rich
+    for t in rich:
+        s = t.params["tower_fa.test_rich.stretch"]
+        assert 0.95 <= s <= 1.05
+        assert ModeSet.from_dict(t.user_attrs["modeset_json"])["tower_fa"].params == {"stretch": s}
+    exact = [t for t in outcome.optuna_study.trials if t.params["tower_fa.family"] == "test_exact"]
+    assert all("tower_fa.test_rich.stretch" not in t.params for t in exact)
+
+
+def test_parallel_workers_share_the_study(tmp_path):
+    import cloudpickle
+    import sys
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    study = load(make_study(tmp_path, n_trials=6))
+    outcome = run_search(study, out_dir=tmp_path / "out", n_jobs=2, engine=FAKE_ENGINE, progress=False)
+    trials = outcome.optuna_study.trials
+    assert all(t.state == optuna.trial.TrialState.COMPLETE for t in trials)
+    # each worker evaluates its share (3 + 3); two workers may race on one set
+    assert 5 <= len(distinct(trials)) and len(trials) - sum("duplicate_of" in t.user_attrs for t in trials) == 6
+
+
+def test_changed_definition_is_refused_on_resume(tmp_path):
+    path = make_study(tmp_path, n_trials=2)
+    run_search(load(path), out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    path.write_text(path.read_text().replace('metric = "nrmse"', "").replace(
+        "tolerance = 0.035", 'tolerance = 0.035\nmetric = "max_abs"'))
+    with pytest.raises(ModeselError, match="different definition"):
+        run_search(load(path), out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    # the tolerance alone may change
+    path.write_text(path.read_text().replace('metric = "max_abs"', "").replace("tolerance = 0.035", "tolerance = 0.02"))
+    outcome = run_search(load(path), out_dir=tmp_path / "out", n_trials=1, engine=FAKE_ENGINE, progress=False)
+    assert len(distinct(outcome.optuna_study.trials)) == 3
+
+
+def test_field_not_active_in_any_scene_is_refused(tmp_path):
+    path = make_study(tmp_path, extra="""
+[search.fields.tower_ss]
+families = ["test_exact"]
+""")
+    with pytest.raises(ModeselError, match="tower_ss.*not active") as info:
+        run_search(load(path), out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)
+    assert "search.fields.tower_ss" in str(info.value)
+
+
+def test_unreachable_storage_is_a_user_error(tmp_path):
+    study = load(make_study(tmp_path))
+    with pytest.raises(ModeselError, match="cannot open storage"):
+        run_search(study, storage="postgresql://nobody:secret@127.0.0.1:1/none", engine=FAKE_ENGINE,
+                   progress=False)
+    try:
+        run_search(study, storage="postgresql://nobody:secret@127.0.0.1:1/none", engine=FAKE_ENGINE,
+                   progress=False)
+    except ModeselError as exc:
+        assert "secret" not in str(exc) and "\n" not in str(exc)
+
+
+def test_search_space_params_round_trip(tmp_path):
+    path = make_study(tmp_path, extra="""
+[search.fields.tower_fa.params.test_rich]
+stretch = [0.95, 1.05]
+""")
+    study = load(path)
+    space = SearchSpace(study.search)
+    ms = ModeSet({"tower_fa": FieldModes("test_rich", 2, {"stretch": 1.01}),
+                  "blade_flap": FieldModes("test_exact", 4)})
+    trial = optuna.trial.FixedTrial(space.params(ms))
+    assert space.suggest(trial) == ms
+    assert space.size() == math.inf
