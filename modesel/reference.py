@@ -232,7 +232,10 @@ def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | Non
     values, units = {}, {}
     for ch in channels:
         name = mapping.get(ch, ch)
-        values[ch] = _column(df, name, file)
+        sign = 1.0
+        if name.startswith("-"):          # "-Q_TSS1": the file's channel, negated
+            sign, name = -1.0, name[1:]
+        values[ch] = sign * _column(df, name, file)
         if units_in_file.get(name):
             units[ch] = units_in_file[name]
     return Reference(scene, file, time + float(time_offset), values, units,

@@ -29,8 +29,9 @@ Example (every key shown; only [[scene]], [compare].channels and
     time_offset = 0.0                  # [s] added to the reference time before comparing
     window = [5.0, 20.0]               # [s] comparison window in simulation time
                                        # (default: where simulation and reference overlap)
-    [reference.channels]               # simulation name = reference name (default: same)
-    TTDspFA = "TTDspFA"
+    [reference.channels]               # simulation name = reference name (default: same);
+    TTDspFA = "TTDspFA"                # a leading "-" negates the reference channel, e.g.
+    TTDspSS = "-Q_TSS1"                # ElastoDyn's Q_TSS1 displaces along -y
     # kind = "internal": a converged reference from the same engine, raising
     # the count of `family` per active field until the response changes by
     # less than `tolerance` (nrmse) between successive counts:
