@@ -212,29 +212,48 @@ class Objective:
             pass
 
     def _earlier(self, trial, label: str):
+        """The trial that owns `label`: a finished one, or one that another
+        worker is running and that was created before `trial` (the later
+        trial always yields, so two workers never simulate the same set)."""
         import optuna
-        states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL)
-        for t in trial.study.get_trials(deepcopy=False, states=states):
-            if t.number != trial.number and t.user_attrs.get("modeset") == label \
-                    and t.user_attrs.get("fail_reason") != INTERRUPTED \
-                    and t.user_attrs.get("duplicate_of") is None:
+        TS = optuna.trial.TrialState
+        for t in trial.study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL, TS.RUNNING)):
+            if t.number == trial.number or t.user_attrs.get("modeset") != label \
+                    or t.user_attrs.get("fail_reason") == INTERRUPTED \
+                    or t.user_attrs.get("duplicate_of") is not None:
+                continue
+            if t.state != TS.RUNNING or t.number < trial.number:
                 return t
         return None
+
+    def _finished(self, trial, earlier, wait_s: float = 600.0, poll_s: float = 0.5):
+        """`earlier` once it has finished (another worker may still be running
+        it), or None if it has not finished within `wait_s`."""
+        import time
+        import optuna
+        deadline = time.monotonic() + wait_s
+        while earlier.state == optuna.trial.TrialState.RUNNING:
+            if time.monotonic() > deadline:
+                return None
+            time.sleep(poll_s)
+            earlier = next(t for t in trial.study.get_trials(deepcopy=False) if t.number == earlier.number)
+        return earlier
 
     def __call__(self, trial):
         modeset = self.space.suggest(trial)
         label = modeset.label()
+        trial.set_user_attr("modeset", label)          # claim the set before looking for owners
         earlier = self._earlier(trial, label)
+        if earlier is not None:
+            earlier = self._finished(trial, earlier)
         if earlier is not None:   # the record stays with the earlier trial
             self.duplicate_streak += 1
-            trial.set_user_attr("modeset", label)
             trial.set_user_attr("duplicate_of", earlier.number)
             if earlier.values is None:
                 raise ModeselError(earlier.user_attrs.get("fail_reason", "failed"))
             return tuple(earlier.values)
         self.duplicate_streak = 0
         self.evaluated += 1
-        trial.set_user_attr("modeset", label)
         trial.set_user_attr("modeset_json", modeset.to_dict())
         try:
             record = self.evaluate(modeset)
@@ -313,12 +332,19 @@ def open_storage(url: str):
     if isinstance(url, optuna.storages.BaseStorage):   # already open
         return url
     if "://" in url:
-        try:
-            import sqlalchemy.exc
-            return optuna.storages.RDBStorage(url, heartbeat_interval=60, grace_period=180)
-        except (ImportError, ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
-            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
+        import time
+        import sqlalchemy.exc
+        for attempt in range(5):
+            try:
+                return optuna.storages.RDBStorage(url, heartbeat_interval=60, grace_period=180)
+            except sqlalchemy.exc.IntegrityError:
+                # two workers creating the schema of an empty database at once:
+                # one wins, the other retries and finds the tables made
+                time.sleep(0.2 * (attempt + 1))
+            except (ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
+                msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
+        raise ModeselError("cannot open storage: schema creation kept conflicting", file=mask_url(url))
     path = Path(url)
     if not path.parent.is_dir():
         raise ModeselError("storage folder does not exist", file=url)
