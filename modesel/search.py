@@ -341,7 +341,7 @@ def open_storage(url: str):
                 # two workers creating the schema of an empty database at once:
                 # one wins, the other retries and finds the tables made
                 time.sleep(0.2 * (attempt + 1))
-            except (ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
+            except (ImportError, ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
                 msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
                 raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
         raise ModeselError("cannot open storage: schema creation kept conflicting", file=mask_url(url))

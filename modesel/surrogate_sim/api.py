@@ -1,12 +1,19 @@
 """Front functions of the simulator: `load_scene`, `build`, `simulate`,
 `linearize_scene`. A scene switches on only the DOFs and effects it calls
 for: fields without modes have no states, and an effect that is off is
-never evaluated.
+not imported, not constructed and never evaluated (`effects.select`).
+
+Right-hand side: M(q) qdd = F(q, qd, t) + loads, where the loads are the
+switched-on effects' generalised forces and node forces (effects/base.py).
+A scene whose effects are only linear spring-dampers (drivetrain) or model
+options (damping, pitch, locked generator) integrates in the engine's
+compiled loop; effects with loads at every step (aero, tower drag,
+generator torque) go through `Built.M_F`.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -14,12 +21,19 @@ import pandas as pd
 from modesel.errors import ModeselError
 from modesel.modeset import ModeSet
 from modesel.surrogate_sim import linearize as _lin
+from modesel.surrogate_sim.effects import select as select_effects
+from modesel.surrogate_sim.effects.base import BuildSpec
 from modesel.surrogate_sim.equations import KaneEquations
 from modesel.surrogate_sim.integrate import choose_method, integrate
 from modesel.surrogate_sim.models import build_turbine
 from modesel.surrogate_sim.outputs import channels
 from modesel.surrogate_sim.scene import Scene, load_scene  # noqa: F401  (re-export)
 from modesel.surrogate_sim.system import Prescribed
+
+#: coordinates of the drivetrain springs, included in a static equilibrium
+DRIVETRAIN_DOFS = ("DrTr", "HSSTw")
+#: rotor azimuths over which the multi-blade linearisation is averaged
+MBC_AZIMUTHS = 12
 
 
 @dataclass
@@ -43,7 +57,7 @@ class SimulationResult:
 
 @dataclass
 class Built:
-    """A scene turned into equations, ready to integrate or linearise."""
+    """A scene turned into equations and effects, ready to integrate or linearise."""
 
     scene: Scene
     model: object
@@ -51,14 +65,75 @@ class Built:
     q0: np.ndarray
     qd0: np.ndarray
     effects: list
+    linear: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self._frames = None
+        self._frames_key = None
+        self._set_linear(self.linear)
+
+    def _set_linear(self, terms):
+        self.linear = list(terms)
+        idx = self.eq.index
+        self._lin_rows = np.array([idx[r] for r, _, _, _ in self.linear], dtype=int)
+        self._lin_cols = np.array([idx[c] for _, c, _, _ in self.linear], dtype=int)
+        self._lin_k = np.array([k for _, _, k, _ in self.linear], float)
+        self._lin_c = np.array([c for _, _, _, c in self.linear], float)
+
+    # ------------------------------------------------------------- effects
+    def effect(self, name: str):
+        """The switched-on effect `name`, or None."""
+        return next((e for e in self.effects if e.name == name), None)
+
+    @property
+    def acting(self) -> list:
+        """Effects that add loads at every right-hand side."""
+        return [e for e in self.effects if e.loads]
+
+    def frames(self, q_all, qd_all):
+        """Body frames (R, vec) at (q_all, qd_all), computed once per state
+        (`effects.kinematics.FrameKinematics`)."""
+        if self._frames is None:
+            from modesel.surrogate_sim.effects.kinematics import FrameKinematics
+            self._frames = FrameKinematics(self.eq)
+        key = (id(q_all), id(qd_all))
+        if key != self._frames_key:
+            self._frames_result = self._frames(q_all, qd_all)
+            self._frames_key = key
+        return self._frames_result
+
+    def hub_height(self) -> float:
+        """Height of the rotor apex above the ground at rest [m]."""
+        q_all, qd_all, _ = self.eq.full_state(np.zeros_like(self.q0), np.zeros_like(self.qd0), 0.0)
+        states = self.eq.kinematics(q_all, qd_all)
+        return float(states[self.eq.body_index["hub"]].r[2])
+
+    def loads(self, t, q_all, qd_all):
+        """(generalised forces (n_all,), node forces {body: (N,3)}) of all
+        switched-on effects at one state (all coordinates)."""
+        gen = np.zeros(self.eq.n_all)
+        if len(self._lin_rows):
+            np.subtract.at(gen, self._lin_rows, self._lin_k * q_all[self._lin_cols]
+                           + self._lin_c * qd_all[self._lin_cols])
+        nodes = {}
+        for e in self.acting:
+            e(self, t, q_all, qd_all, gen, nodes)
+        return gen, nodes
 
     def M_F(self, t, q, qd):
-        gen = None
-        if self.effects:
-            gen = np.zeros(self.eq.n_all)
-            for eff in self.effects:
-                eff(self, t, q, qd, gen)
-        return self.eq.evaluate(q, qd, t, generalized=gen)
+        """M and F of the free coordinates (M qdd = F) with all loads."""
+        if not self.acting and not self.linear:
+            return self.eq.evaluate(q, qd, t)
+        q_all, qd_all, _ = self.eq.full_state(q, qd, t)
+        gen, nodes = self.loads(t, q_all, qd_all)
+        return self.eq.evaluate(q, qd, t, node_forces=nodes or None, generalized=gen)
+
+    def rhs(self):
+        """The right-hand side for `integrate`: compiled when no effect acts
+        at every step, else `M_F`."""
+        if not self.acting and hasattr(self.eq, "compiled_rhs"):
+            return self.eq.compiled_rhs(self.linear)
+        return self.M_F
 
 
 def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:
@@ -69,36 +144,46 @@ def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:
     return ModeSet(fields)
 
 
-def _drivetrain(built, t, q, qd, gen):
-    """Drivetrain torsional spring and damper on DrTr (ElastoDyn DTTorSpr/DTTorDmp)."""
-    eq = built.eq
-    i = eq.index.get("DrTr")
-    if i is None or "DrTr" not in built.model.system.free:
-        return
-    q_all, qd_all, _ = eq.full_state(q, qd, t)
-    tb = built.model.turbine
-    gen[i] -= tb.drivetrain_stiffness * q_all[i] + tb.drivetrain_damping * qd_all[i]
-
-
-def build(scene: Scene, modeset: ModeSet | None = None) -> Built:
+def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = False) -> Built:
+    """Equations and effects of `scene` (with `modeset` overriding its
+    shapes). reactions: add the reaction coordinates of the load outputs
+    (TwrBsMyt, RootMyc<b>; models.py)."""
     ms = effective_modeset(scene, modeset)
     init = scene.initial
-    prescribed = {}
-    fixed = dict(scene.fixed)
+    effects = select_effects(scene)
+    spec = BuildSpec(free=list(scene.free), fixed=dict(scene.fixed), prescribed={},
+                     pitch=_collective(init.get("BlPitch", 0.0)), damping=False, reactions=reactions)
     if "GeAz" in scene.constant_speed:
-        prescribed["GeAz"] = Prescribed(init.get("Azimuth", 0.0), scene.constant_speed["GeAz"])
-    elif "GeAz" not in scene.free:
-        fixed.setdefault("GeAz", init.get("Azimuth", 0.0))
-    model = build_turbine(scene.turbine, ms, free=scene.free, fixed=fixed, prescribed=prescribed,
+        spec.prescribed["GeAz"] = Prescribed(init.get("Azimuth", 0.0), scene.constant_speed["GeAz"])
+    for e in effects:
+        e.configure(spec)
+    if "GeAz" not in spec.free and "GeAz" not in spec.prescribed:
+        spec.fixed.setdefault("GeAz", init.get("Azimuth", 0.0))
+    model = build_turbine(scene.turbine, ms, free=spec.free, fixed=spec.fixed, prescribed=spec.prescribed,
                           gravity=bool(scene.effect("gravity")),
                           geometric_stiffening=bool(scene.effect("geometric_stiffening")),
                           rotor_speed_for_shapes=scene.constant_speed.get("GeAz", init.get("RotSpeed", 0.0)),
-                          pitch=_collective(init.get("BlPitch", 0.0)))
-    if not scene.effect("damping"):
+                          pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
+                          reactions=spec.reactions)
+    if not spec.damping:
         for b in model.system.flexible_bodies():
             if b.damping is not None:
                 b.damping = np.zeros_like(b.damping)
+    for e in effects:
+        e.prepare(model)
     eq = KaneEquations(model.system)
+    q0, qd0 = _initial_state(model, init)
+    built = Built(scene, model, eq, q0, qd0, effects)
+    for e in effects:
+        e.setup(built)
+    built._set_linear([term for e in effects for term in e.linear(built)])
+    if init.get("equilibrium"):
+        built.q0 = static_equilibrium(built)
+    return built
+
+
+def _initial_state(model, init):
+    """(q0, qd0) of the free coordinates from ElastoDyn-named initial conditions."""
     names = list(model.system.free)
     q0 = np.zeros(len(names))
     qd0 = np.zeros(len(names))
@@ -125,10 +210,34 @@ def build(scene: Scene, modeset: ModeSet | None = None) -> Built:
     put("Yaw", init.get("NacYaw", 0.0))
     put("PtfmSurge", init.get("PtfmSurge", 0.0))
     put("PtfmPitch", init.get("PtfmPitch", 0.0))
-    effects = []
-    if "DrTr" in scene.free:
-        effects.append(_drivetrain)
-    return Built(scene, model, eq, q0, qd0, effects)
+    return q0, qd0
+
+
+def static_equilibrium(built: Built, t: float = 0.0) -> np.ndarray:
+    """Free coordinates at which the elastic and drivetrain coordinates have
+    no acceleration (rigid DOFs and all rates as in the initial state): the
+    deflection under gravity, centrifugal and aerodynamic loads at t.
+    Starting a simulation there removes most of the start-up transient."""
+    import scipy.optimize
+    names = built.model.system.free
+    rigid = {"GeAz", "Yaw", "PtfmSurge", "PtfmPitch"}
+    sel = np.array([i for i, n in enumerate(names) if n not in rigid or n in DRIVETRAIN_DOFS], dtype=int)
+    if not len(sel):
+        return built.q0.copy()
+
+    def residual(x):
+        q = built.q0.copy()
+        q[sel] = x
+        M, F = built.M_F(t, q, built.qd0)
+        return np.linalg.solve(M, F)[sel]
+
+    sol = scipy.optimize.root(residual, built.q0[sel], method="hybr", options={"xtol": 1e-10})
+    if not sol.success or not np.all(np.isfinite(sol.x)):
+        raise ModeselError(f"no static equilibrium found ({sol.message})", file=built.scene.path,
+                           field="initial.equilibrium")
+    q = built.q0.copy()
+    q[sel] = sol.x
+    return q
 
 
 def _collective(pitch) -> float:
@@ -163,7 +272,7 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     if tmax <= 0 or dt <= 0:
         raise ModeselError("tmax and dt must be positive", field="tmax/dt")
     t0 = time.perf_counter()
-    built = build(scene, modeset)
+    built = build(scene, modeset, reactions=True)
     requested = scene.solver.get("method", "auto")
     n = len(built.q0)
     if n == 0:
@@ -171,25 +280,44 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     lin = _lin.linearize(built.M_F, built.q0 * 0, built.qd0, built.model.system.free)
     omegas = np.array([2 * np.pi * m.frequency_hz for m in _lin.modes(lin)])
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
-    integ = integrate(built.M_F, built.q0, built.qd0, tmax, dt, method=method,
+    integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
                       rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
                       max_step=float(scene.solver.get("max_step", np.inf)), bounds=_bounds(built),
                       stiffness_ratio=ratio)
     wall = time.perf_counter() - t0
-    df = channels(built.model, built.eq, integ)
+    df = channels(built, integ)
     return SimulationResult(df, n, wall, float(integ.t[-1]), list(built.model.system.free), method, ratio,
                             integ.n_rhs)
 
 
+# ------------------------------------------------------------------ linearisation
 def linearize_scene(scene: Scene, modeset: ModeSet | None = None, rpm: float | None = None):
     """Modes of the scene linearised at its initial state with zero elastic
-    deflection; with `rpm` the rotor turns at that constant speed."""
+    deflection; with `rpm` the rotor turns at that constant speed.
+
+    A three-bladed rotor on a flexible support (tower, yaw or platform DOFs)
+    is analysed in multi-blade coordinates (Coleman/MBC, Bir 2008,
+    NREL/CP-500-42553): each blade DOF type X (F1, E1, ...) becomes X_coll,
+    X_cos, X_sin, the transformed matrices are averaged over MBC_AZIMUTHS
+    rotor azimuths (a single one when the rotor is parked), and modes are
+    labelled by their dominant MBC coordinate, frequencies being those seen
+    in the fixed frame (Campbell diagram). For a parked rotor with blade 1 up,
+    X_cos is the rotor "pitch" (tilt) asymmetric mode of flap and the "yaw"
+    one of edge, X_sin the flap "yaw" and edge "pitch" modes (Jonkman 2009
+    Table 9-1 naming). Otherwise (rotor on a rigid support) the blades are
+    analysed in the rotating frame and labelled by their own DOF (B1F1 ...).
+    Returns (modes, LinearModel)."""
     if rpm is not None:
-        scene = Scene(**{**scene.__dict__, "constant_speed": {"GeAz": rpm * np.pi / 30.0},
-                         "free": tuple(d for d in scene.free if d != "GeAz")})
+        scene = replace(scene, constant_speed={"GeAz": rpm * np.pi / 30.0},
+                        free=tuple(d for d in scene.free if d != "GeAz"))
     built = build(scene, modeset)
-    q0 = np.zeros_like(built.q0)
-    lin = _lin.linearize(built.M_F, q0, built.qd0 * 0 + _rigid_rates(built), built.model.system.free)
+    names = list(built.model.system.free)
+    qd0 = _rigid_rates(built)
+    groups = _blade_groups(built)
+    if groups is None:
+        lin = _lin.linearize(built.M_F, np.zeros_like(built.q0), qd0, names)
+        return _lin.modes(lin), lin
+    lin = _multiblade(built, groups, qd0)
     return _lin.modes(lin), lin
 
 
@@ -199,3 +327,80 @@ def _rigid_rates(built):
         if n == "GeAz":
             out[i] = built.qd0[i]
     return out
+
+
+def _blade_groups(built):
+    """{DOF type: [index of blade 1, 2, 3]} when MBC applies, else None."""
+    model = built.model
+    names = list(model.system.free)
+    if model.turbine.num_blades != 3:
+        return None
+    support = [n for n in names if n.startswith(("TFA", "TSS", "TTor")) or n in ("Yaw", "PtfmSurge", "PtfmPitch")]
+    groups = {}
+    for i, n in enumerate(names):
+        if n.startswith("B") and n[1].isdigit():
+            groups.setdefault(n[2:], [None] * 3)[int(n[1]) - 1] = i
+    if not support or not groups:
+        return None
+    return groups
+
+
+def _rotor_speed(built, qd0):
+    sys = built.model.system
+    if "GeAz" in sys.prescribed:
+        return float(sys.prescribed["GeAz"].rate)
+    if "GeAz" in sys.free:
+        return float(qd0[sys.free.index("GeAz")])
+    return 0.0
+
+
+def _multiblade(built, groups, qd0):
+    """Linear model in multi-blade coordinates, averaged over azimuths."""
+    sys = built.model.system
+    names = list(sys.free)
+    n = len(names)
+    omega = _rotor_speed(built, qd0)
+    az0 = built.scene.initial.get("Azimuth", 0.0)
+    prescribed = "GeAz" in sys.prescribed
+    free_geaz = names.index("GeAz") if "GeAz" in sys.free else None
+    count = MBC_AZIMUTHS if (omega != 0.0 and (prescribed or free_geaz is not None)) else 1
+    mbc_names = list(names)
+    for key, idx in groups.items():
+        mbc_names[idx[0]], mbc_names[idx[1]], mbc_names[idx[2]] = f"{key}_coll", f"{key}_cos", f"{key}_sin"
+    MB = np.zeros((n, n))
+    CB = np.zeros((n, n))
+    KB = np.zeros((n, n))
+    for k in range(count):
+        psi = az0 + 2.0 * np.pi * k / count
+        q0 = np.zeros(n)
+        t = 0.0
+        if count > 1 and prescribed:
+            t = (psi - az0) / omega
+        elif count > 1:
+            q0[free_geaz] = psi
+        lin = _lin.linearize(built.M_F, q0, qd0, names, t=t)
+        T1, T2, T3 = _mbc_matrices(n, groups, psi)
+        Ti = np.linalg.inv(T1)
+        MB += Ti @ lin.M @ T1
+        CB += Ti @ (2.0 * omega * lin.M @ T2 + lin.C @ T1)
+        KB += Ti @ (omega**2 * lin.M @ T3 + omega * lin.C @ T2 + lin.K @ T1)
+    return _lin.LinearModel(mbc_names, MB / count, CB / count, KB / count)
+
+
+def _mbc_matrices(n, groups, psi):
+    """q_rot = T1 q_mbc and its first/second azimuth derivatives (Bir 2008):
+    blade b's DOF = coll + cos(psi_b) cos + sin(psi_b) sin,
+    psi_b = psi + 2 pi (b - 1) / 3."""
+    T1 = np.eye(n)
+    T2 = np.zeros((n, n))
+    T3 = np.zeros((n, n))
+    for idx in groups.values():
+        c0, cc, cs = idx
+        for b, i in enumerate(idx):
+            pb = psi + 2.0 * np.pi * b / 3.0
+            c, s = np.cos(pb), np.sin(pb)
+            T1[i, :] = 0.0
+            T1[i, c0], T1[i, cc], T1[i, cs] = 1.0, c, s
+            T2[i, cc], T2[i, cs] = -s, c
+            T3[i, cc], T3[i, cs] = -c, -s
+    return T1, T2, T3

@@ -19,13 +19,21 @@ and gravity stiffening) from the kinematics themselves.
 
 Cost is O(bodies * n^2) per evaluation, with no symbolic expression growth,
 so a 40-DOF model is as easy as a 3-DOF one.
+
+Two implementations of the same equations: this module's numpy code is the
+readable reference (`evaluate_full_reference`, `evaluate_reference`); the
+numba kernel of `kernel.py` (packed once, on first use) serves `evaluate`,
+`evaluate_full` and `compiled_rhs`, and tests hold the two equal to 1e-10.
+The system must not be modified after the first evaluation.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from modesel.surrogate_sim import kernel
 from modesel.surrogate_sim.bodies import FlexibleBody, RigidBody
 from modesel.surrogate_sim.system import System
 
@@ -225,9 +233,43 @@ class KaneEquations:
             acc_loc = -np.einsum("kij,i,j->k", f.S, qde, qde)[:, None] * f.axis
         return s, B_loc, acc_loc
 
+    # -------------------------------------------------------- compiled kernel
+    @cached_property
+    def packed_full(self) -> kernel.Packed:
+        """Kernel arrays computing every row of M and F."""
+        return kernel.pack(self)
+
+    @cached_property
+    def packed_free(self) -> kernel.Packed:
+        """Kernel arrays computing the rows of free and prescribed coordinates."""
+        active = np.zeros(self.n_all, bool)
+        active[self.free_idx] = True
+        active[self.presc_idx] = True
+        return kernel.pack(self, active)
+
+    @cached_property
+    def _kernel_all_rows(self) -> kernel.CompiledRHS:
+        return kernel.CompiledRHS(self, all_rows=True)
+
+    @cached_property
+    def _kernel_free_rows(self) -> kernel.CompiledRHS:
+        return kernel.CompiledRHS(self)
+
+    def compiled_rhs(self, linear=()) -> kernel.CompiledRHS:
+        """Compiled right-hand side of the free coordinates for `integrate`
+        (see `kernel.CompiledRHS`; `linear` adds generalised spring-dampers)."""
+        return kernel.CompiledRHS(self, linear)
+
     # -------------------------------------------------------------- equations
     def evaluate_full(self, q, qd, node_forces=None, generalized=None, states=None):
-        """M (n_all x n_all) and F (n_all) over all coordinates."""
+        """M (n_all x n_all) and F (n_all) over all coordinates (compiled
+        kernel; with precomputed `states` the numpy reference)."""
+        if states is not None:
+            return self.evaluate_full_reference(q, qd, node_forces, generalized, states)
+        return self._kernel_all_rows.full(q, qd, generalized, node_forces)
+
+    def evaluate_full_reference(self, q, qd, node_forces=None, generalized=None, states=None):
+        """M (n_all x n_all) and F (n_all) over all coordinates (numpy reference)."""
         n = self.n_all
         M = np.zeros((n, n))
         F = np.zeros(n) if generalized is None else np.array(generalized, float)
@@ -302,7 +344,17 @@ class KaneEquations:
     def evaluate(self, q, qd, t=0.0, node_forces=None, generalized=None):
         """(M, F) for the free coordinates: M qdd = F (eq. 22)."""
         q_all, qd_all, qdd_p = self.full_state(q, qd, t)
-        M, F = self.evaluate_full(q_all, qd_all, node_forces, generalized)
+        M, F = self._kernel_free_rows.full(q_all, qd_all, generalized, node_forces)
+        return self._restrict(M, F, qdd_p)
+
+    def evaluate_reference(self, q, qd, t=0.0, node_forces=None, generalized=None):
+        """`evaluate` with the numpy reference."""
+        q_all, qd_all, qdd_p = self.full_state(q, qd, t)
+        M, F = self.evaluate_full_reference(q_all, qd_all, node_forces, generalized)
+        return self._restrict(M, F, qdd_p)
+
+    def _restrict(self, M, F, qdd_p):
+        """Free rows and columns; prescribed accelerations to the right (eq. 21-22)."""
         fi = self.free_idx
         if len(self.presc_idx):
             F = F - M[:, self.presc_idx] @ qdd_p[self.presc_idx]

@@ -17,10 +17,13 @@ naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
     constant_speed = { GeAz = 12.1 } # prescribed constant rotor speed, rpm
     [initial]                        # ElastoDyn names: TTDspFA TTDspSS [m], RotSpeed [rpm],
     TTDspFA = 1.0                    # Azimuth NacYaw PtfmPitch BlPitch [deg], OoPDefl IPDefl PtfmSurge [m]
-    [effects]
-    gravity = true
+    equilibrium = false              # true: start the elastic DOFs at their static equilibrium
+    [effects]                        # each effect is `true`, `false` or a table of its options
+    gravity = true                   # (see modesel/surrogate_sim/effects/ for every effect)
     geometric_stiffening = true
-    damping = true
+    damping = true                   # on unless false; { model = "stiffness_proportional" }
+    [effects.wind]                   # wind, pitch, drivetrain, generator, aero, tower_drag
+    speed = 11.4
     [solver]
     method = "auto"                  # auto | RK45 | DOP853 | Radau | BDF | LSODA
     rtol = 1e-8
@@ -35,6 +38,8 @@ import numpy as np
 
 from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS, FieldModes, ModeSet
+from modesel.surrogate_sim.effects import KEYS as EFFECT_KEYS
+from modesel.surrogate_sim.effects import validate as validate_effects
 
 TOP_KEYS = ("name", "description", "turbine", "tmax", "dt", "modes", "dofs", "initial", "effects",
             "solver", "outputs", "overrides")
@@ -54,8 +59,7 @@ OVERRIDES = {
 DOF_KEYS = ("free", "fixed", "constant_speed")
 RIGID = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
 INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
-                "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl")
-EFFECT_KEYS = ("gravity", "geometric_stiffening", "damping", "aero", "generator", "wind", "tower_drag")
+                "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
 SOLVER_KEYS = ("method", "rtol", "atol", "max_step")
 ANGLE_KEYS = ("Azimuth", "NacYaw", "PtfmPitch", "BlPitch", "TTDspTwst")
 
@@ -178,9 +182,15 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
     init_tbl = data.get("initial", {})
     _check_keys(init_tbl, INITIAL_KEYS, file, "initial")
     for k, v in init_tbl.items():
+        if k == "equilibrium":
+            if not isinstance(v, bool):
+                raise ModeselError(f"must be true or false, got {v!r}", file=file, field="initial.equilibrium")
+            initial[k] = v
+            continue
         initial[k] = _initial_si(k, _number(v, file, f"initial.{k}"))
     effects = data.get("effects", {})
     _check_keys(effects, EFFECT_KEYS, file, "effects")
+    validate_effects(effects, file, None if path is None else path.parent)
     solver = data.get("solver", {})
     _check_keys(solver, SOLVER_KEYS, file, "solver")
     over = data.get("overrides", {})
