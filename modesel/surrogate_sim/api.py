@@ -69,7 +69,7 @@ class Built:
 
     def __post_init__(self):
         self._frames = None
-        self._frames_key = None
+        self._frames_state = (None, None)
         self._set_linear(self.linear)
 
     def _set_linear(self, terms):
@@ -91,15 +91,17 @@ class Built:
         return [e for e in self.effects if e.loads]
 
     def frames(self, q_all, qd_all):
-        """Body frames (R, vec) at (q_all, qd_all), computed once per state
-        (`effects.kinematics.FrameKinematics`)."""
+        """Body frames (R, vec) at (q_all, qd_all) (`effects.kinematics.FrameKinematics`),
+        computed once per pair of state arrays: every effect of one right-hand
+        side shares them. The arrays are identified by identity (and held, so
+        the identity cannot be reused); do not modify them in place."""
         if self._frames is None:
             from modesel.surrogate_sim.effects.kinematics import FrameKinematics
             self._frames = FrameKinematics(self.eq)
-        key = (id(q_all), id(qd_all))
-        if key != self._frames_key:
+        held_q, held_qd = self._frames_state
+        if q_all is not held_q or qd_all is not held_qd:
             self._frames_result = self._frames(q_all, qd_all)
-            self._frames_key = key
+            self._frames_state = (q_all, qd_all)
         return self._frames_result
 
     def hub_height(self) -> float:
@@ -278,7 +280,8 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     if n == 0:
         raise ModeselError("the scene has no free degree of freedom", file=scene.path, field="dofs")
     lin = _lin.linearize(built.M_F, built.q0 * 0, built.qd0, built.model.system.free)
-    omegas = np.array([2 * np.pi * m.frequency_hz for m in _lin.modes(lin)])
+    # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
+    omegas = np.array([2 * np.pi * m.frequency_hz for m in _lin.modes(lin) if abs(m.damping_ratio) < 1.0])
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
     integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
                       rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),

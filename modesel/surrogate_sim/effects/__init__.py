@@ -1,0 +1,71 @@
+"""Effects a scene switches on in its [effects] table, one module each,
+behind the `Effect` interface (`base.py`), selected by `select(scene)`.
+
+    wind        steady or time-varying uniform wind with power-law shear (input of aero, tower_drag)
+    pitch       prescribed constant collective pitch
+    drivetrain  ElastoDyn torsional spring/damper on DrTr, or the second paper's LSS/HSS springs
+    generator   generator torque: constant, locked, or the NREL 5-MW variable-speed law
+    damping     structural damping: the deck's modal ratios, or second paper eq. 46-50
+    aero        BEM blade loads with structural motion and Pitt-Peters skew (second paper section 3)
+    tower_drag  quasi-steady tower drag (second paper eq. 51)
+
+`gravity` and `geometric_stiffening` are flags of the system itself (the
+engine's kinematics), not modules. An effect that is off is not imported,
+not constructed and never evaluated.
+"""
+from __future__ import annotations
+
+import importlib
+
+#: [effects] key -> module, in the order effects are configured and evaluated
+MODULES = {
+    "wind": "wind",
+    "pitch": "pitch",
+    "drivetrain": "drivetrain",
+    "generator": "generator",
+    "damping": "damping",
+    "aero": "aero",
+    "tower_drag": "tower_drag",
+}
+FLAGS = ("gravity", "geometric_stiffening")
+#: effects that may be on without being named in the scene (damping always,
+#: drivetrain when DrTr is free; see their `default_on_for`)
+DEFAULT_ON = ("damping", "drivetrain")
+KEYS = FLAGS + tuple(MODULES)
+
+
+def effect_class(name: str):
+    """The Effect subclass of [effects] key `name` (imports its module)."""
+    module = importlib.import_module(f"{__name__}.{MODULES[name]}")
+    return module.EFFECT
+
+
+def validate(effects: dict, file=None, base_dir=None) -> None:
+    """Check the options of every effect mentioned in a scene's [effects]."""
+    from modesel.errors import ModeselError
+    for name, value in effects.items():
+        if name in FLAGS:
+            if not isinstance(value, bool):
+                raise ModeselError(f"must be true or false, got {value!r}", file=file, field=f"effects.{name}")
+            continue
+        if value is False:
+            continue
+        effect_class(name).parse_options(value, file, base_dir)
+
+
+def select(scene) -> list:
+    """The switched-on effects of `scene`, constructed, in `MODULES` order."""
+    from pathlib import Path
+    base_dir = None if scene.path is None else Path(scene.path).parent
+    out = []
+    for name in MODULES:
+        value = scene.effects.get(name)
+        if value is False:
+            continue
+        if value is None and name not in DEFAULT_ON:
+            continue
+        cls = effect_class(name)
+        if not cls.applies(scene):
+            continue
+        out.append(cls(scene, cls.parse_options(value, scene.path, base_dir)))
+    return out
