@@ -34,7 +34,7 @@ from functools import cached_property
 import numpy as np
 
 from modesel.surrogate_sim import kernel
-from modesel.surrogate_sim.bodies import FlexibleBody, RigidBody
+from modesel.surrogate_sim.bodies import FlexibleBody
 from modesel.surrogate_sim.system import System
 
 

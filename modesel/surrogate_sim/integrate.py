@@ -20,7 +20,6 @@ callable (t, q, qd) -> (M, F) goes through scipy unchanged.
 """
 from __future__ import annotations
 
-import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -1,0 +1,215 @@
+"""The compiled kernel (kernel.py) against the numpy reference of the Kane
+equations (equations.py): M and F equal to 1e-10 relative at random states,
+and the compiled DOP853 loop against scipy's solve_ivp on the same equations.
+
+The first run compiles the kernel (numba, cached on disk afterwards)."""
+import numpy as np
+import pytest
+
+from modesel.errors import SimulationDiverged
+from modesel.modeset import FieldModes, ModeSet
+from modesel.surrogate_sim import kernel
+from modesel.surrogate_sim.bodies import FlexibleBody, Joint, RigidBody, Rotation, Shortening
+from modesel.surrogate_sim.elastodyn import load_turbine
+from modesel.surrogate_sim.equations import KaneEquations
+from modesel.surrogate_sim.integrate import integrate
+from modesel.surrogate_sim.models import build_turbine
+from modesel.surrogate_sim.system import Prescribed, System
+
+REL = 1e-10
+
+
+def assert_equal_rel(a, b, what):
+    scale = np.abs(b).max()
+    assert scale > 0, what
+    err = np.abs(a - b).max() / scale
+    assert err <= REL, (what, err)
+
+
+def pendulum_chain() -> System:
+    """A rigid chain exercising every joint feature (prismatic + revolute,
+    rotation sequences with summed and offset angles, axial shortening),
+    rigid-distributed bodies with node polar inertia (0 elastic DOFs, one of
+    them and a rigid body on constant joints, which the kernel lumps into
+    their parent) and a flexible body with shapes, shortening, torsion and
+    polar inertia."""
+    rng = np.random.default_rng(7)
+    link1 = RigidBody("link1", Joint(None, np.array([0.1, 0.0, 2.0]), translation={"d": np.array([1.0, 0.0, 0.0])},
+                                     rotations=[Rotation(1, {"th1": 1.0})]),
+                      3.0, np.array([0.0, 0.0, -1.0]), np.diag([0.4, 0.5, 0.1]))
+    pre = Rotation(0, {}, 0.2)
+    j2 = Joint("link1", np.array([0.0, 0.1, -2.0]), np.eye(3), {"th2": np.array([0.0, 0.3, 0.0])},
+               Shortening(np.array([0.0, 0.0, 1.0]), ("d", "th2"), np.array([[0.2, 0.05], [0.05, 0.1]])),
+               [pre, Rotation(0, {"th2": 1.0}), Rotation(2, {"th1": 0.5, "th2": 1.0, "psi": 1.0}, 0.3),
+                Rotation(1, {"phi": 1.0})])
+    link2 = RigidBody("link2", j2, 2.0, np.array([0.1, 0.0, -1.5]),
+                      np.array([[0.3, 0.01, 0.0], [0.01, 0.2, 0.02], [0.0, 0.02, 0.1]]))
+    N = 12
+    nodes = np.column_stack([rng.normal(size=N) * 0.1, rng.normal(size=N) * 0.1, -np.linspace(0.1, 1.5, N)])
+    bob = FlexibleBody("bob", Joint("link2", np.array([0.0, 0.0, -1.5]), rotations=[Rotation(2, {"psi": 2.0})]),
+                       nodes, rng.uniform(0.5, 1.5, N), np.array([0.0, 0.0, -1.0]),
+                       node_polar_inertia=rng.uniform(0.01, 0.1, N))
+    ne = 2
+    shapes = rng.normal(size=(N, 3, ne)) * 0.3
+    S = rng.normal(size=(N, ne, ne)) * 0.1
+    S = S + S.transpose(0, 2, 1)
+    K = np.array([[50.0, 5.0], [5.0, 80.0]])
+    arm = FlexibleBody("arm", Joint("link1", np.array([0.0, 0.0, -2.0]), rotations=[Rotation(0, {"th2": -1.0})]),
+                       nodes * 0.8, rng.uniform(0.5, 1.5, N), np.array([0.0, 0.0, -1.0]), ("e1", "e2"),
+                       shapes, S, rng.normal(size=(N, ne)) * 0.2, rng.uniform(0.01, 0.1, N), K, 0.01 * K)
+    # rigid bodies on constant joints, lumped into link2 by the kernel
+    quarter_turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    fin = FlexibleBody("fin", Joint("link2", np.array([0.2, -0.1, -0.7]), quarter_turn,
+                                    rotations=[Rotation(1, {}, 0.4)]),
+                       nodes * 0.5, rng.uniform(0.5, 1.5, N), np.array([1.0, 0.0, 0.0]),
+                       node_polar_inertia=rng.uniform(0.01, 0.1, N))
+    cap = RigidBody("cap", Joint("fin", np.array([0.0, 0.3, 0.2]), rotations=[Rotation(2, {}, -0.8)]),
+                    0.7, np.array([0.05, 0.0, 0.1]), np.diag([0.02, 0.03, 0.01]))
+    return System([link1, link2, bob, arm, fin, cap], ["th1", "th2", "d", "e1", "e2"], {"phi": 0.2},
+                  {"psi": Prescribed(0.1, 0.7, 0.3)})
+
+
+@pytest.fixture(scope="module")
+def turbine():
+    return load_turbine("nrel5mw")
+
+
+def turbine_system(turbine, case) -> System:
+    ed = lambda n: FieldModes("elastodyn", n)            # noqa: E731
+    if case == "land_3dof":
+        return build_turbine(turbine, ModeSet({"tower_fa": ed(1), "tower_ss": ed(1)}), free=("GeAz",)).system
+    blades = ModeSet({"tower_fa": ed(1), "tower_ss": ed(1), "tower_torsion": FieldModes("linear", 1),
+                      "blade_flap": ed(2), "blade_edge": ed(1)})
+    if case == "flexible_blades":
+        return build_turbine(turbine, blades, free=("GeAz", "DrTr"), fixed={"Yaw": 0.05}).system
+    if case == "prescribed_rotor":
+        return build_turbine(turbine, blades, prescribed={"GeAz": Prescribed(0.4, 1.27, 0.05)}).system
+    raise KeyError(case)
+
+
+def random_states(eq, rng, count=3):
+    for _ in range(count):
+        q = rng.normal(size=eq.n_all) * 0.5
+        qd = rng.normal(size=eq.n_all)
+        for name in ("GeAz", "DrTr", "Yaw", "th1", "th2", "psi", "phi"):
+            if name in eq.index:
+                q[eq.index[name]] = rng.uniform(-np.pi, np.pi)
+        yield q, qd
+
+
+def node_forces(system, rng):
+    return {b.name: rng.normal(size=(len(b.node_mass), 3)) * 1e3 for b in system.flexible_bodies()}
+
+
+def check_against_reference(system, rng):
+    eq = KaneEquations(system)
+    for q, qd in random_states(eq, rng):
+        gen = rng.normal(size=eq.n_all) * 1e3
+        nf = node_forces(system, rng)
+        M, F = eq.evaluate_full(q, qd, nf, gen)
+        Mr, Fr = eq.evaluate_full_reference(q, qd, nf, gen)
+        assert_equal_rel(M, Mr, "M (all coordinates)")
+        assert_equal_rel(F, Fr, "F (all coordinates)")
+        assert np.allclose(M, M.T, rtol=0, atol=1e-12 * np.abs(M).max())
+        t = rng.uniform(0, 10)
+        qf, qdf = q[eq.free_idx], qd[eq.free_idx]
+        M, F = eq.evaluate(qf, qdf, t)
+        Mr, Fr = eq.evaluate_reference(qf, qdf, t)
+        assert_equal_rel(M, Mr, "M (free)")
+        assert_equal_rel(F, Fr, "F (free)")
+    return eq
+
+
+def test_pendulum_chain_matches_reference():
+    eq = check_against_reference(pendulum_chain(), np.random.default_rng(1))
+    kinds = eq.packed_full.data[0][:, 1]
+    assert list(kinds[-2:]) == [kernel.LUMPED, kernel.LUMPED]      # fin and cap lumped into link2
+
+
+def test_pendulum_chain_analytic():
+    """Single pendulum through the kernel: M = m L^2 + I, F = -m g L sin(th)."""
+    L, m, g = 2.0, 3.0, 9.80665
+    bob = RigidBody("bob", Joint(None, rotations=[Rotation(1, {"th": 1.0})]), m, np.array([0, 0, -L]),
+                    np.diag([0.0, 0.5, 0.0]))
+    rhs = KaneEquations(System([bob], ["th"], gravity=g)).compiled_rhs()
+    for th in (0.1, 1.0, 2.5):
+        M, F = rhs(0.0, np.array([th]), np.array([0.7]))
+        assert M[0, 0] == pytest.approx(m * L * L + 0.5, rel=1e-12)
+        assert F[0] == pytest.approx(-m * g * L * np.sin(th), rel=1e-12)
+
+
+@pytest.mark.parametrize("case", ["land_3dof", "flexible_blades", "prescribed_rotor"])
+def test_turbine_matches_reference(turbine, case):
+    check_against_reference(turbine_system(turbine, case), np.random.default_rng(2))
+
+
+def test_compiled_rhs_matches_evaluate(turbine):
+    """CompiledRHS (free rows, drivetrain spring-damper, solve in the kernel)
+    equals the reference equations plus the same generalised force."""
+    system = turbine_system(turbine, "flexible_blades")
+    eq = KaneEquations(system)
+    k, c = 8.7e8, 6.2e6
+    rhs = eq.compiled_rhs([("DrTr", "DrTr", k, c)])
+    i = eq.index["DrTr"]
+    for q, qd in random_states(eq, np.random.default_rng(3)):
+        qf, qdf = q[eq.free_idx], qd[eq.free_idx]
+        gen = np.zeros(eq.n_all)
+        gen[i] = -(k * q[i] + c * qd[i])
+        Mr, Fr = eq.evaluate_reference(qf, qdf, 1.3, generalized=gen)
+        M, F = rhs(1.3, qf, qdf)
+        assert_equal_rel(M, Mr, "M")
+        assert_equal_rel(F, Fr, "F")
+        qdd, status = rhs.accelerations(1.3, qf, qdf)
+        assert status == 0
+        assert_equal_rel(qdd, np.linalg.solve(Mr, Fr), "qdd")
+
+
+def test_compiled_dop853_equals_solve_ivp(turbine):
+    """The compiled loop reproduces scipy's DOP853 (same steps, same outputs)."""
+    system = build_turbine(turbine, ModeSet({"tower_fa": FieldModes("elastodyn", 1),
+                                             "tower_ss": FieldModes("elastodyn", 1)}), free=("GeAz",)).system
+    eq = KaneEquations(system)
+    rhs = eq.compiled_rhs()
+    q0, qd0 = np.array([1.0, 0.5, 0.0]), np.array([0.0, 0.0, 1.27])
+    compiled = integrate(rhs, q0, qd0, 5.0, 0.01)
+    scipy_run = integrate(lambda t, q, qd: eq.evaluate_reference(q, qd, t), q0, qd0, 5.0, 0.01)
+    assert compiled.n_rhs == scipy_run.n_rhs
+    assert np.array_equal(compiled.t, scipy_run.t)
+    assert np.abs(compiled.q - scipy_run.q).max() < 1e-9
+    assert np.abs(compiled.qd - scipy_run.qd).max() < 1e-9
+    assert np.ptp(compiled.q[:, 0]) > 1.5                      # it did vibrate
+
+
+def test_compiled_divergence_detected(turbine):
+    """Buckling tower (gravity x 1e4) and a tight bound stop with SimulationDiverged."""
+    ms = ModeSet({"tower_fa": FieldModes("elastodyn", 1)})
+    model = build_turbine(turbine, ms)
+    model.system.gravity *= 1e4
+    rhs = KaneEquations(model.system).compiled_rhs()
+    with pytest.raises(SimulationDiverged) as info:
+        integrate(rhs, np.array([0.1]), np.array([0.0]), 20.0, 0.01, bounds=np.array([40.0]))
+    assert 0.0 < info.value.time < 20.0
+    rhs = KaneEquations(build_turbine(turbine, ms).system).compiled_rhs()
+    with pytest.raises(SimulationDiverged) as info:
+        integrate(rhs, np.array([1.0]), np.array([0.0]), 5.0, 0.01, bounds=np.array([0.5]))
+    assert "beyond its physical bound" in str(info.value)
+
+
+def test_linear_solvers():
+    """Cholesky for the (SPD) mass matrix; Gaussian elimination for any other
+    non-singular matrix; an exactly singular one is reported."""
+    rng = np.random.default_rng(4)
+    A = rng.normal(size=(6, 6))
+    b = rng.normal(size=6)
+    spd = A @ A.T + np.eye(6)
+    x = b.copy()
+    assert kernel._cholesky_solve(spd.copy(), x)
+    assert np.allclose(spd @ x, b, rtol=0, atol=1e-12)
+    indefinite = A + A.T
+    assert not kernel._cholesky_solve(indefinite.copy(), b.copy())
+    x = b.copy()
+    assert kernel._lu_solve(indefinite.copy(), x)
+    assert np.allclose(indefinite @ x, b, rtol=0, atol=1e-10)
+    singular = A.copy()
+    singular[3] = 0.0
+    assert not kernel._lu_solve(singular, b.copy())
