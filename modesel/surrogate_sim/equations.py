@@ -35,6 +35,7 @@ import numpy as np
 
 from modesel.surrogate_sim import kernel
 from modesel.surrogate_sim.bodies import FlexibleBody
+from modesel.surrogate_sim.packing import Packed, pack
 from modesel.surrogate_sim.system import System
 
 
@@ -235,17 +236,17 @@ class KaneEquations:
 
     # -------------------------------------------------------- compiled kernel
     @cached_property
-    def packed_full(self) -> kernel.Packed:
+    def packed_full(self) -> Packed:
         """Kernel arrays computing every row of M and F."""
-        return kernel.pack(self)
+        return pack(self)
 
     @cached_property
-    def packed_free(self) -> kernel.Packed:
+    def packed_free(self) -> Packed:
         """Kernel arrays computing the rows of free and prescribed coordinates."""
         active = np.zeros(self.n_all, bool)
         active[self.free_idx] = True
         active[self.presc_idx] = True
-        return kernel.pack(self, active)
+        return pack(self, active)
 
     @cached_property
     def _kernel_all_rows(self) -> kernel.CompiledRHS:
@@ -255,10 +256,11 @@ class KaneEquations:
     def _kernel_free_rows(self) -> kernel.CompiledRHS:
         return kernel.CompiledRHS(self)
 
-    def compiled_rhs(self, linear=()) -> kernel.CompiledRHS:
+    def compiled_rhs(self, linear=(), *, all_rows=False) -> kernel.CompiledRHS:
         """Compiled right-hand side of the free coordinates for `integrate`
-        (see `kernel.CompiledRHS`; `linear` adds generalised spring-dampers)."""
-        return kernel.CompiledRHS(self, linear)
+        (see `kernel.CompiledRHS`; `linear` adds generalised spring-dampers;
+        all_rows for `reactions` of fixed coordinates)."""
+        return kernel.CompiledRHS(self, linear, all_rows=all_rows)
 
     # -------------------------------------------------------------- equations
     def evaluate_full(self, q, qd, node_forces=None, generalized=None, states=None):

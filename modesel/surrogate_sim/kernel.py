@@ -1,28 +1,29 @@
-"""Compiled (numba) evaluation of the Kane equations M(q) qdd = F(q, qd, t)
-and the explicit DOP853 loop that integrates them without returning to Python.
+"""Compiled (numba) Kane equations M(q) qdd = F(q, qd, t) and the explicit
+DOP853 loop that integrates them without returning to Python.
 
 Same mathematics as the numpy reference in `equations.py` (first paper
 eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
 
-- the compiled system is packed into flat arrays (`pack`), padded per body;
+- the system is packed once into flat arrays (`packing.pack`; the array
+  layout is defined here, next to the code that reads it, so that numba's
+  on-disk cache is invalidated whenever either changes);
 - Jacobian work is restricted to the columns that can be non-zero for a body
   (the coordinates of its ancestors' joints, intersected with the coordinates
   whose equations are needed), so a fixed-base tower costs no Jacobian work;
-- a flexible body without elastic coordinates is a rigid body: its node sums
-  (mass, first and second moments, A2-A7) are formed once at pack time and
-  the rigid-body form eq. 6-7 about its centre of mass is used (the same
-  equations, exact to round-off); the node polar inertia keeps the flexible
-  form of eq. A with t = [0, e_g] (no gyroscopic term, like the reference);
+- a flexible body without elastic coordinates is a rigid body (its node sums
+  A2-A7 formed at pack time, eq. 6-7 about its centre of mass), and rigid
+  bodies on constant joints are lumped into their rigid parent (rigid blades
+  into the hub): same mass, centre of mass and inertia, exact to round-off;
+  node polar inertia keeps the flexible form of eq. A with t = [0, e_g]
+  (no gyroscopic term, like the reference);
 - flexible-body node sums are formed in the body frame and the 6+ne blocks
-  rotated once (p = R s, B = R B_loc; the elastic block B^T B is invariant);
-- no allocation inside the body and node loops.
+  rotated once (p = R s, B = R B_loc; B^T B is invariant); the O(N ne^2)
+  sums are two matrix products;
+- the mass matrix of the free coordinates is solved by Cholesky.
 
-The packed arrays are a tuple `data` (see `pack`); kernels take
-(q_all, qd_all, gravity, node_forces, node_force_flag, generalized, data, work).
+Kernels take the packed arrays `data` and reusable `work` arrays (tuples).
 """
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -40,217 +41,6 @@ SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
 # body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
 OFF, R0, MASS, CM, INERTIA, AXIS, POLAR, SH_E = 0, 3, 12, 13, 16, 25, 28, 37
 N_FLOAT = 40
-
-
-# ----------------------------------------------------------------------------- packing
-@dataclass
-class Packed:
-    """Flat arrays of a compiled system (`data`) and reusable work arrays."""
-
-    data: tuple
-    work: tuple
-    n_all: int
-    n_bodies: int
-    node_start: dict      # flexible body name -> (first node, node count)
-
-
-def _joint_columns(joint, n):
-    cols = set(np.flatnonzero(np.any(joint.A != 0.0, axis=0))) if joint.has_A else set()
-    for _, c, _ in joint.rotations:
-        cols |= set(np.flatnonzero(c != 0.0))
-    if joint.short is not None:
-        cols |= set(int(i) for i in joint.short[1])
-    return cols
-
-
-def pack(eq, active=None) -> Packed:
-    """Pack `eq` (a `KaneEquations`) for the kernels. `active` (n_all bool):
-    coordinates whose rows/columns of M and F are needed (default all);
-    the others must have zero rate (fixed coordinates)."""
-    n = eq.n_all
-    active = np.ones(n, bool) if active is None else np.asarray(active, bool)
-    nb = len(eq.bodies)
-    slot = {b.name: i for i, (b, _, _) in enumerate(eq.bodies)}
-    bi = np.zeros((nb, N_INT), np.int64)
-    bf = np.zeros((nb, N_FLOAT))
-    A = np.zeros((nb, 3, n))
-    rot_axis, rot_c, rot_off = [], [], []
-    ipool = []
-    cols_of = []
-    flex_nodes = []
-    nsh_max = max([len(j.short[1]) for _, j, _ in eq.bodies if j.short is not None] + [1])
-    ne_max = max([len(f.idx) for _, _, f in eq.bodies if f is not None] + [1])
-    shG = np.zeros((nb, nsh_max, nsh_max))
-    node_start = {}
-    n_nodes = 0
-    for k, (b, j, f) in enumerate(eq.bodies):
-        parent = -1 if j.parent is None else slot[j.parent]
-        bi[k, PARENT] = parent
-        bf[k, OFF:OFF + 3] = j.offset
-        bf[k, R0:R0 + 9] = j.R0.ravel()
-        if j.has_A:
-            A[k] = j.A
-            bi[k, HAS_A] = 1
-        bi[k, ROT0], bi[k, NROT] = len(rot_axis), len(j.rotations)
-        for axis, c, off in j.rotations:
-            rot_axis.append(axis)
-            rot_c.append(c)
-            rot_off.append(off)
-        if j.short is not None:
-            e, idx, G = j.short
-            bi[k, SH0], bi[k, NSH] = len(ipool), len(idx)
-            ipool.extend(int(i) for i in idx)
-            shG[k, :len(idx), :len(idx)] = G
-            bf[k, SH_E:SH_E + 3] = e
-        cols = (set() if parent < 0 else set(cols_of[parent])) | _joint_columns(j, n)
-        cols = sorted(c for c in cols if active[c])
-        cols_of.append(cols)
-        bi[k, COL0], bi[k, NCOL] = len(ipool), len(cols)
-        ipool.extend(cols)
-        if f is None:
-            has_inertia = b.mass != 0.0 or np.any(b.inertia)
-            bi[k, KIND] = RIGID if (has_inertia and cols) else SKIP
-            bf[k, MASS] = b.mass
-            bf[k, CM:CM + 3] = np.asarray(b.cm, float)
-            bf[k, INERTIA:INERTIA + 9] = np.asarray(b.inertia, float).ravel()
-            continue
-        ne = len(f.idx)
-        N = len(f.m)
-        bi[k, NODE0], bi[k, NNODE], bi[k, NE] = n_nodes, N, ne
-        node_start[b.name] = (n_nodes, N)
-        n_nodes += N
-        flex_nodes.append((k, f))
-        bf[k, AXIS:AXIS + 3] = f.axis
-        bi[k, E0] = len(ipool)
-        ipool.extend(int(i) for i in f.idx)
-        has_jp = f.Jp is not None and bool(np.any(f.Jp))
-        bi[k, HAS_JP] = has_jp
-        if ne == 0:
-            # rigid equivalent of the node sums (A2-A7 at q_e = 0): exact
-            m = f.mass
-            c = (f.m @ f.s0) / m if m > 0 else np.zeros(3)
-            d = f.s0 - c
-            I = (f.m @ np.einsum("ki,ki->k", d, d)) * np.eye(3) - (d * f.m[:, None]).T @ d
-            bf[k, MASS] = m
-            bf[k, CM:CM + 3] = c
-            bf[k, INERTIA:INERTIA + 9] = I.ravel()
-            if has_jp:
-                bf[k, POLAR:POLAR + 9] = (float(f.Jp.sum()) * np.outer(f.axis, f.axis)).ravel()
-            bi[k, KIND] = RIGID if cols else SKIP
-        else:
-            bi[k, KIND] = FLEX
-            bi[k, HAS_S] = f.S is not None
-            bi[k, HAS_ETA] = f.eta is not None
-    s0 = np.zeros((max(n_nodes, 1), 3))
-    nm = np.zeros(max(n_nodes, 1))
-    Jp = np.zeros(max(n_nodes, 1))
-    fpool = [np.zeros(1)]          # per flexible body, contiguous: Phi (N,3,ne), S (N,ne,ne), eta (N,ne), K, D
-    size = 1
-    for k, f in flex_nodes:
-        a, N, ne = bi[k, NODE0], bi[k, NNODE], bi[k, NE]
-        s0[a:a + N] = f.s0
-        nm[a:a + N] = f.m
-        if f.Jp is not None:
-            Jp[a:a + N] = f.Jp
-        if ne == 0:
-            continue
-        blocks = [(PHI0, f.Phi), (S0, f.S), (ETA0, f.eta), (KD0, np.stack([f.K, f.D]))]
-        for col, arr in blocks:
-            if arr is None:
-                continue
-            bi[k, col] = size
-            fpool.append(np.ascontiguousarray(arr, float).ravel())
-            size += fpool[-1].size
-    _lump_rigid_subtrees(eq, bi, bf)
-    nrot = max(len(rot_axis), 1)
-    n_max = max([bi[k, NNODE] for k, _ in flex_nodes] + [1])
-    nrot = max(len(rot_axis), 1)
-    rc = np.zeros((nrot, n))
-    if rot_c:
-        rc[:len(rot_c)] = np.array(rot_c)
-    data = (bi, bf, np.array(ipool + [0], np.int64), np.array(rot_axis + [0], np.int64), rc,
-            np.array(rot_off + [0.0]), A, shG, s0, nm, Jp, np.concatenate(fpool), active.copy())
-    work = _work_arrays(nb, n, ne_max, n_max)
-    return Packed(data, work, n, nb, node_start)
-
-
-def _constant_pose(joint):
-    """(offset, rotation) of a joint that depends on no coordinate, else None."""
-    if joint.has_A or joint.short is not None or any(np.any(c != 0.0) for _, c, _ in joint.rotations):
-        return None
-    Rc = joint.R0.copy()
-    for axis, _, off in joint.rotations:
-        c, s = np.cos(off), np.sin(off)
-        i1, i2 = ((1, 2), (2, 0), (0, 1))[axis]
-        Rot = np.eye(3)
-        Rot[i1, i1], Rot[i1, i2], Rot[i2, i1], Rot[i2, i2] = c, -s, s, c
-        Rc = Rc @ Rot
-    return joint.offset.copy(), Rc
-
-
-def _lump_rigid_subtrees(eq, bi, bf):
-    """Lump every rigid body attached by a constant joint to a rigid ancestor
-    (e.g. rigid blades on the hub) into that ancestor: same total mass, centre
-    of mass, inertia tensor and polar tensor (exact). The lumped body keeps
-    its kinematics only for its node forces (kind LUMPED)."""
-    nb = len(eq.bodies)
-    target = list(range(nb))
-    pose = [(np.zeros(3), np.eye(3)) for _ in range(nb)]       # in the target frame
-    flexible = [f is not None and len(f.idx) > 0 for _, _, f in eq.bodies]
-    # accumulate mass, first moment and inertia about the origin of each target
-    mass = bf[:, MASS].copy()
-    first = mass[:, None] * bf[:, CM:CM + 3]
-    second = np.zeros((nb, 3, 3))
-    for k in range(nb):
-        c = bf[k, CM:CM + 3]
-        second[k] = bf[k, INERTIA:INERTIA + 9].reshape(3, 3) + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
-    changed = set()
-    for k, (_, j, _) in enumerate(eq.bodies):
-        p = bi[k, PARENT]
-        cp = _constant_pose(j)
-        if bi[k, KIND] != RIGID or p < 0 or flexible[p] or cp is None:
-            continue
-        t = target[p]
-        rp, Rp = pose[p]
-        r, R = rp + Rp @ cp[0], Rp @ cp[1]
-        target[k], pose[k] = t, (r, R)
-        c = r + R @ bf[k, CM:CM + 3]
-        I = R @ bf[k, INERTIA:INERTIA + 9].reshape(3, 3) @ R.T
-        mass[t] += mass[k]
-        first[t] += mass[k] * c
-        second[t] += I + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
-        P = bf[t, POLAR:POLAR + 9].reshape(3, 3) + R @ bf[k, POLAR:POLAR + 9].reshape(3, 3) @ R.T
-        bf[t, POLAR:POLAR + 9] = P.ravel()
-        bi[t, HAS_JP] = bi[t, HAS_JP] or bi[k, HAS_JP]
-        bi[t, KIND] = RIGID
-        bi[k, KIND] = LUMPED
-        changed.add(t)
-    for t in changed:
-        c = first[t] / mass[t] if mass[t] > 0 else np.zeros(3)
-        bf[t, MASS] = mass[t]
-        bf[t, CM:CM + 3] = c
-        bf[t, INERTIA:INERTIA + 9] = (second[t] - mass[t] * (c @ c * np.eye(3) - np.outer(c, c))).ravel()
-
-
-def _work_arrays(nb, n, ne_max, n_max):
-    """Body states (slot nb = ground) and scratch arrays."""
-    R = np.zeros((nb + 1, 3, 3))
-    R[nb] = np.eye(3)
-    vec = np.zeros((nb + 1, 5, 3))            # r, v, w, a, alpha
-    Jv = np.zeros((nb + 1, 3, n))
-    Jw = np.zeros((nb + 1, 3, n))
-    m3n = np.zeros((4, 3, n))                 # Jw_rel, J_rho, J_vG / J6 rows 0-2, Ig Jw / J6 rows 3-5
-    m6n = np.zeros((2, 6 + ne_max, n))
-    e_scr = np.zeros((8, max(ne_max, 1)))
-    B3 = np.zeros((4, 3, max(ne_max, 1)))      # B_loc, Ct, Cr, Phi q
-    Mee = np.zeros((max(ne_max, 1), max(ne_max, 1)))
-    Mb = np.zeros((6 + ne_max, 6 + ne_max))
-    fy = np.zeros(6 + ne_max)
-    v_scr = np.zeros((16, 3))
-    m_scr = np.zeros((2, 3, 3))
-    nodes = np.zeros((6, 3 * n_max * (ne_max + 1)))   # B, m B, (S q, S qd), s, p_dot, load of a flexible body
-    G = np.zeros(18 * n_max)
-    return (R, vec, Jv, Jw, m3n, m6n, e_scr, B3, Mee, Mb, fy, v_scr, m_scr, nodes, G)
 
 
 # ------------------------------------------------------------------ small helpers
@@ -422,9 +212,9 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     R, vec = work[0][b], work[1][b]
     w, a, al = vec[2], vec[3], vec[4]
     m = bf[b, MASS]
-    v_scr = work[11]
+    v_scr = work[10]
     p, fG, Iw, Ial = v_scr[0], v_scr[1], v_scr[2], v_scr[3]
-    Ig = work[12][0]
+    Ig = work[11][0]
     _mv(R, bf[b, CM:CM + 3], p)
     for i in range(3):
         for j in range(3):
@@ -479,7 +269,7 @@ def _add_node_forces(b, fnodes, data, work, fy):
     """fy += [sum f_k; sum p_k x f_k] for the nodes of a body without elastic DOFs."""
     bi, s0 = data[0], data[8]
     R = work[0][b]
-    pk = work[11][5]
+    pk = work[10][5]
     a0 = bi[b, NODE0]
     for k in range(a0, a0 + bi[b, NNODE]):
         _mv(R, s0[k], pk)
@@ -500,11 +290,11 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     bi, bf, ipool = data[0], data[1], data[2]
     s0, nm, Jp, fpool = data[8], data[9], data[10], data[11]
     R, vec = work[0][b], work[1][b]
-    e_scr, B3, nodes = work[6], work[7], work[13]
+    e_scr, B3, nodes = work[6], work[7], work[12]
     ne, e0, a0, N = bi[b, NE], bi[b, E0], bi[b, NODE0], bi[b, NNODE]
     has_S, has_jp, has_eta = bi[b, HAS_S], bi[b, HAS_JP], bi[b, HAS_ETA]
-    qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[4, :ne]
-    Ct, Cr = B3[1], B3[2]
+    qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
+    Ct, Cr = B3[0], B3[1]
     N3 = 3 * N
     Phi = fpool[bi[b, PHI0]:bi[b, PHI0] + N3 * ne].reshape((N3, ne))       # row 3k+i: node k, axis i
     B = nodes[0, :N3 * ne].reshape((N3, ne))                               # B_loc (body frame)
@@ -514,7 +304,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     for l in range(ne):
         qe[l] = q[ipool[e0 + l]]
         qde[l] = qd[ipool[e0 + l]]
-    loc = work[11]    # w, alpha, a, g (body frame), m p, f_t, f_r, -, -, -, -, axis, f_k, R m p
+    loc = work[10]    # w, alpha, a, g (body frame), m p, f_t, f_r, -, -, -, -, axis, f_k, R m p
     wb, alb, ab, gb, mp, ft, fr, ax, fk, mpi = (loc[0], loc[1], loc[2], loc[3], loc[4], loc[5], loc[6],
                                                 loc[11], loc[12], loc[13])
     _mtv(R, vec[2], wb)
@@ -523,7 +313,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     _mtv(R, gvec, gb)
     for i in range(3):
         ax[i] = bf[b, AXIS + i]
-    Irr = work[12][1]
+    Irr = work[11][1]
     # deformed positions s = s0 + Phi q_e - 1/2 (q_e^T S_k q_e) e_axis and
     # B_loc = Phi - e_axis (S_k q_e)^T (first paper D4; second paper eq. 3)
     if has_S:
@@ -556,7 +346,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
             pdv[r] = y
         load[3 * k] = -qdSqd          # axial acceleration, kept here until the load is formed
     # loads m (g - a_node) + f_node and the node rows of G = [I ...; [s_k~] ...]
-    G = work[14][:6 * N3].reshape((6, N3))
+    G = work[13][:6 * N3].reshape((6, N3))
     mass = mp0 = mp1 = mp2 = 0.0
     J00 = J11 = J22 = J01 = J02 = J12 = 0.0          # sum m s s^T
     for k in range(N):
@@ -720,7 +510,7 @@ def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F):
     """M (n x n) and F (n) over all coordinates (eq. 22 before restriction);
     rows/columns of inactive coordinates are left zero."""
     bi = data[0]
-    Mb, fy = work[9], work[10]
+    Mb, fy = work[8], work[9]
     kinematics(q, qd, data, work)
     n = q.shape[0]
     for i in range(n):
@@ -878,6 +668,35 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         if not np.isfinite(out[nf + a]):
             return NON_FINITE_ACC, -1
     return OK, -1
+
+
+@njit(cache=True)
+def reaction_loads(ts, X, rows, prob, rwork, data, work, out):
+    """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
+    `rows` at the states X[k] = [q, qd] and times ts[k] (a constraint
+    coordinate's equation gives the load that holds it, first paper eq. 22);
+    needs arrays packed with all rows. Returns a status code."""
+    nf = X.shape[1] // 2
+    n = rwork[1].shape[0]
+    acc = np.empty(2 * nf)
+    inf = np.full(nf, np.inf)
+    qdd = np.empty(n)
+    for k in range(ts.shape[0]):
+        code, _ = free_system(ts[k], X[k], acc, True, inf, prob, rwork, data, work)
+        if code != OK:
+            return code
+        M, F, qddp = rwork[1], rwork[2], rwork[0][2]
+        for i in range(n):
+            qdd[i] = qddp[i]
+        for a in range(nf):
+            qdd[prob[0][a]] = acc[nf + a]
+        for j in range(rows.shape[0]):
+            r = rows[j]
+            v = F[r]
+            for i in range(n):
+                v -= M[r, i] * qdd[i]
+            out[k, j] = v
+    return OK
 
 
 @njit(cache=True)
@@ -1057,6 +876,12 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
 
 
 # ------------------------------------------------------------- Python front
+def pack(eq, active=None):
+    """`packing.pack` (the kernel's arrays of a `KaneEquations`)."""
+    from modesel.surrogate_sim.packing import pack as _pack
+    return _pack(eq, active)
+
+
 class CompiledRHS:
     """A `KaneEquations` packed for the compiled kernel, with its free,
     prescribed and fixed coordinates.
@@ -1069,7 +894,9 @@ class CompiledRHS:
     kernel; `dop853` integrates entirely compiled, which needs every
     prescribed coordinate to be polynomial in t (`compilable`). `full`
     evaluates all coordinates: every row with all_rows=True, else only the
-    rows of free and prescribed coordinates (the others are zero)."""
+    rows of free and prescribed coordinates (the others are zero);
+    `reactions` (all_rows) gives the reaction loads of fixed coordinates at
+    many output times in one compiled call."""
 
     def __init__(self, eq, linear=(), *, all_rows=False):
         self.eq = eq
@@ -1133,6 +960,27 @@ class CompiledRHS:
         assemble(np.asarray(q_all, float), np.asarray(qd_all, float), self.prob[4], fnodes, flag, gen,
                  p.data, p.work, M, F)
         return M, F
+
+    def reactions(self, t, q, qd, rows):
+        """Reaction loads F_r - M_r qdd [N or N m] of coordinates `rows`
+        (names, e.g. the models' reaction coordinates) at times t (n_t,) and
+        free states q, qd (n_t, n_free): (n_t, len(rows)). Needs all_rows."""
+        if self.packed is not self.eq.packed_full:
+            raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
+        t = np.atleast_1d(np.asarray(t, float))
+        X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
+        idx = np.array([self.eq.index[r] for r in rows], np.int64)
+        out = np.zeros((len(t), len(idx)))
+        if not self.compilable:
+            for k, tk in enumerate(t):
+                tk0, prob = self._problem_at(tk)
+                reaction_loads(np.array([tk0]), X[k:k + 1], idx, prob, self.rwork, self.packed.data,
+                               self.packed.work, out[k:k + 1])
+            return out
+        code = reaction_loads(t, X, idx, self.prob, self.rwork, self.packed.data, self.packed.work, out)
+        if code != OK:
+            out[:] = np.nan
+        return out
 
     def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
         """Integrate from x0 = [q, qd] over [0, tmax]:
