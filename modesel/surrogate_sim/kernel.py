@@ -708,6 +708,18 @@ def _rms(x):
 
 
 @njit(cache=True)
+def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
+    """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
+    K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
+    for i in range(len(y)):
+        acc = 0.0
+        for j in range(s):
+            acc += K[j, i] * A[s, j]
+        ys[i] = y[i] + acc * h
+    return free_system(t + C[s] * h, ys, K[s], True, bounds, prob, rwork, data, work)
+
+
+@njit(cache=True)
 def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
     """Dormand-Prince 8(5,3) with the step control, initial step and 7th-order
     dense output of scipy.integrate.DOP853 (Hairer, Norsett & Wanner II.10),
@@ -782,12 +794,7 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             for i in range(nx):
                 K[0, i] = f[i]
             for s in range(1, n_stages):
-                for i in range(nx):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += K[j, i] * A[s, j]
-                    ys[i] = y[i] + acc * h
-                code, idx = free_system(t + C[s] * h, ys, K[s], True, bounds, prob, rwork, data, work)
+                code, idx = _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                 nfev += 1
                 if code != OK:
                     return code, t + C[s] * h, nfev, n_out, idx
@@ -838,12 +845,7 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
         # dense output on the outputs in (t_old, t] (all remaining at the end)
         if n_out < nt and (t_eval[n_out] <= t or t >= tmax):
             for s in range(n_stages + 1, A.shape[0]):
-                for i in range(nx):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += K[j, i] * A[s, j]
-                    ys[i] = y[i] + acc * h
-                code, idx = free_system(t_old + C[s] * h, ys, K[s], True, bounds, prob, rwork, data, work)
+                code, idx = _stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                 nfev += 1
                 if code != OK:
                     return code, t_old + C[s] * h, nfev, n_out, idx
