@@ -4,15 +4,38 @@ Each command lives in its own module under `modesel.commands`; the module
 defines `register(subparsers)` which adds a sub-parser and sets
 `func(args) -> int` as its default. Errors the user can fix are
 `ModeselError`s: printed as one line on stderr, exit code 2, no traceback
-unless `--debug` is given.
+unless `--debug` is given; command-line syntax errors are one line too.
+SIGTERM is handled like SIGINT (Ctrl-C): the command stops gracefully
+(`modesel run` keeps the finished trials and writes their results), prints
+one line and exits with 143 (SIGTERM) or 130 (SIGINT).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
-from modesel.errors import ModeselError
+from modesel.errors import Interrupted, ModeselError
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors ('modesel: error: ...', exit code 2)."""
+
+    def error(self, message):
+        command = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        where = f"{command}: " if command else ""
+        print(f"modesel: error: {where}{' '.join(message.split())} (see `{self.prog} --help`)",
+              file=sys.stderr)
+        raise SystemExit(2)
+
+
+def _terminate(signum, frame):
+    raise Terminated()
 
 # One entry per command module in modesel/commands/ (add yours here).
 COMMANDS = (
@@ -29,7 +52,7 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="modesel",
         description="Choose assumed-mode sets for reduced-order wind-turbine models.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
@@ -52,16 +75,37 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = _handle_sigterm()
     try:
         return int(args.func(args) or 0)
+    except Interrupted as exc:
+        if args.debug:
+            raise
+        print(f"modesel: {exc}", file=sys.stderr)
+        return exc.exit_code
     except ModeselError as exc:
         if args.debug:
             raise
         print(f"modesel: error: {exc}", file=sys.stderr)
         return exc.exit_code
-    except KeyboardInterrupt:
-        print("modesel: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        if args.debug:
+            raise
+        terminated = isinstance(exc, Terminated)
+        print(f"modesel: interrupted ({'SIGTERM' if terminated else 'SIGINT'})", file=sys.stderr)
+        return 143 if terminated else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _handle_sigterm():
+    """Turn SIGTERM into `Terminated` in the main thread; returns the previous
+    handler (None when not in the main thread, where signals cannot be set)."""
+    try:
+        return signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:
+        return None
 
 
 if __name__ == "__main__":

@@ -46,6 +46,36 @@ class SimulationDiverged(ModeselError):
         self.time = float(time)
 
 
+class PhysicallyUnstable(SimulationDiverged):
+    """The configuration is statically unstable, found before any time step:
+    an elastic coordinate has a negative effective stiffness (e.g. a tower-top
+    mass beyond the buckling load), seen by linearising at the initial state.
+    A simulation of it would diverge, so it is a `SimulationDiverged` at t = 0
+    (a search marks the trial failed with this reason).
+
+    `coordinate` names the dominant coordinate of the unstable mode and
+    `growth` (1/s) is the real positive eigenvalue of the first-order system.
+    """
+
+    def __init__(self, coordinate: str, growth: float, *, file: str | None = None, detail: str = ""):
+        reason = (f"physically unstable configuration (refused before simulating): the mode "
+                  f"dominated by {coordinate} has a negative effective stiffness (grows as "
+                  f"exp({growth:.3g} t), t in s)" + (f"; {detail}" if detail else ""))
+        super().__init__(reason, 0.0, file=file)
+        self.message = reason
+        self.coordinate = coordinate
+        self.growth = float(growth)
+
+
+class Interrupted(ModeselError):
+    """The user stopped a command (SIGINT / Ctrl-C, or SIGTERM); what was
+    finished is kept. Exit code 130 (SIGINT) or 143 (SIGTERM)."""
+
+    def __init__(self, message: str = "interrupted", *, signal_name: str = "SIGINT"):
+        super().__init__(message)
+        self.exit_code = 143 if signal_name == "SIGTERM" else 130
+
+
 def did_you_mean(name: str, choices) -> str:
     """Return ' (did you mean X?)' when a close match exists, else ''."""
     close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)

@@ -20,11 +20,13 @@ def atomic_write_text(path: str | Path, text: str) -> None:
             fh.write(text)
         os.chmod(tmp, 0o666 & ~_umask())      # mkstemp creates 0600; use the usual mode
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError):          # e.g. the target is a folder, disk full
+            raise ModeselError(f"cannot write: {exc.strerror or exc}", file=str(path)) from None
         raise
 
 

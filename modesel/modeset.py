@@ -72,6 +72,12 @@ class ModeSet:
                 raise unknown_name("field", name, FIELDS, file=file, field="fields")
             if not isinstance(spec, dict) or "family" not in spec or "count" not in spec:
                 raise ModeselError("needs 'family' and 'count'", file=file, field=f"fields.{name}")
+            if not isinstance(spec["family"], str):
+                raise ModeselError(f"must be a family name, got {spec['family']!r}", file=file,
+                                   field=f"fields.{name}.family")
+            if not isinstance(spec.get("params", {}), dict):
+                raise ModeselError(f"must be a table of parameter values, got {spec['params']!r}",
+                                   file=file, field=f"fields.{name}.params")
             try:
                 out[name] = FieldModes(str(spec["family"]), spec["count"], dict(spec.get("params", {})))
             except ModeselError as exc:
@@ -95,4 +101,6 @@ class ModeSet:
             raise ModeselError("mode-set file not found", file=str(path)) from None
         except json.JSONDecodeError as exc:
             raise ModeselError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=str(path)) from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ModeselError(f"cannot read the mode-set file: {exc}", file=str(path)) from None
         return cls.from_dict(data, file=str(path))

@@ -28,6 +28,7 @@ a one-line `ModeselError` naming the file and the channel.
 """
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import math
@@ -87,6 +88,13 @@ def _read_csv(path: Path) -> pd.DataFrame:
         raise ModeselError("reference file not found", file=str(path)) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as exc:
         raise ModeselError(f"cannot read CSV: {str(exc).splitlines()[0]}", file=str(path)) from None
+    with open(path, newline="", errors="replace") as fh:     # pandas renames repeated columns (X.1)
+        header = next(csv.reader(fh), [])
+    seen = set()
+    for col in header:
+        if col.strip() in seen:
+            raise ModeselError("column appears twice", file=str(path), field=col.strip())
+        seen.add(col.strip())
     names, units = [], {}
     for col in df.columns:
         m = _HEADER_UNIT.match(str(col))

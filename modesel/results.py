@@ -65,13 +65,21 @@ def write_run_info(out_dir, info: dict) -> None:
 
 
 def read_run_info(out_dir) -> dict:
+    """run.json of an output folder, with the keys `modesel report` needs checked."""
     path = Path(out_dir) / RUN_INFO
     try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
+        info = json.loads(path.read_text())
+    except (FileNotFoundError, NotADirectoryError):
         raise ModeselError(f"not a modesel output folder (no {RUN_INFO})", file=str(out_dir)) from None
     except json.JSONDecodeError as exc:
         raise ModeselError(f"not valid JSON ({exc.msg} at line {exc.lineno})", file=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModeselError(f"cannot read: {exc}", file=str(path)) from None
+    for key in ("study_toml", "study_file", "storage"):
+        if not isinstance(info, dict) or not isinstance(info.get(key), str):
+            raise ModeselError(f"missing or not a string (the file is damaged; run `modesel run` "
+                               f"again with the same --out)", file=str(path), field=key)
+    return info
 
 
 # --------------------------------------------------------------------------- time series

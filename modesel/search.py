@@ -64,16 +64,19 @@ INTERRUPTED = "interrupted"
 
 @dataclass(frozen=True)
 class Engine:
-    """The physics the search drives: `load_scene(path) -> Scene` and
-    `simulate(scene, modeset, tmax=, dt=) -> SimulationResult`."""
+    """The physics the search drives: `load_scene(path) -> Scene`,
+    `simulate(scene, modeset, tmax=, dt=) -> SimulationResult` and,
+    optionally, `channel_unit(name) -> unit or None` (the unit of an output
+    channel, so references in incompatible units are refused before the search)."""
 
     load_scene: Callable
     simulate: Callable
+    channel_unit: Callable | None = None
 
 
 def default_engine() -> Engine:
     from modesel.surrogate_sim import api
-    return Engine(api.load_scene, api.simulate)
+    return Engine(api.load_scene, api.simulate, api.channel_unit)
 
 
 # --------------------------------------------------------------------------- search space
@@ -459,7 +462,37 @@ def prepare_references(study, scenes: dict, engine: Engine, cache_dir=None, log=
             out[spec.name] = load_reference(spec.reference, ref.kind, channels, mapping=ref.channels,
                                             time_offset=ref.time_offset, window=ref.window,
                                             scene=spec.name)
+            check_reference_fits(out[spec.name], spec, scenes[spec.name], study, engine)
     return out
+
+
+def check_reference_fits(reference, spec, scene, study, engine: Engine) -> None:
+    """Refuse, before any trial, a reference that no simulation of the scene
+    can be compared with: no time overlap with the scene's [0, tmax] (within
+    the window), or a channel whose unit cannot be converted to the
+    simulation's (every trial would fail the same way)."""
+    from modesel.reference import unit_factor
+    tmax = spec.tmax if spec.tmax is not None else getattr(scene, "tmax", None)
+    if tmax is not None:
+        lo, hi = max(0.0, reference.time[0]), min(float(tmax), reference.time[-1])
+        window = reference.window
+        if window is not None:
+            lo, hi = max(lo, window[0]), min(hi, window[1])
+        if not hi > lo:
+            span = f"reference [{reference.time[0]:g}, {reference.time[-1]:g}] s"
+            raise ModeselError(
+                f"{span} (time_offset {study.reference.time_offset:g} s applied) and scene "
+                f"'{spec.name}' [0, {float(tmax):g}] s" + (f" within window [{window[0]:g}, {window[1]:g}] s"
+                                                            if window is not None else "")
+                + " do not overlap", file=str(study.path),
+                field="reference.window" if window is not None else "reference.time_offset")
+    if engine.channel_unit is None:
+        return
+    for ch, unit in reference.units.items():
+        sim_unit = engine.channel_unit(ch)
+        if unit and sim_unit and unit_factor(unit, sim_unit) is None:
+            raise ModeselError(f"reference unit '{unit}' cannot be converted to the simulation's "
+                               f"'{sim_unit}'", file=reference.source, field=ch)
 
 
 # --------------------------------------------------------------------------- running
@@ -609,11 +642,14 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
     if n_trials < 1 or n_jobs < 1:
         raise ModeselError("--n-trials and --n-jobs must be >= 1")
     storage = storage or study.run.storage
-    private = storage is None
-    if private:
+    if storage is None:
         if out_dir is None:
             raise ModeselError("no storage: give an output folder or --storage URL")
         storage = default_storage(out_dir)
+    # the output folder's own journal belongs to this run (and its child
+    # processes): a RUNNING trial found there was cut short by an interruption
+    private = out_dir is not None and isinstance(storage, str) and "://" not in storage \
+        and Path(storage).resolve() == Path(default_storage(out_dir))
     if cache_dir is None and out_dir is not None:
         cache_dir = Path(out_dir) / "reference"
 

@@ -90,10 +90,19 @@ class Family(ABC):
 
     def shapes(self, x, count: int, context: FieldContext, **params) -> ShapeSet:
         """Validate and evaluate; the one entry point callers use."""
-        if context.field not in FIELDS:
-            raise unknown_name("field", context.field, FIELDS, field="field")
-        if context.field not in self.fields:
-            raise ModeselError(f"family '{self.name}' does not describe field '{context.field}'"
+        full = self.validate(context.field, count, params)
+        x = np.asarray(x, dtype=float)
+        phi, dphi, ddphi = self.evaluate(x, int(count), context, full)
+        return ShapeSet(context.field, self.name, x, np.atleast_2d(phi), np.atleast_2d(dphi),
+                        np.atleast_2d(ddphi), full)
+
+    def validate(self, field: str, count, params: dict) -> dict:
+        """Check field, count and parameters (names, numbers, ranges) without
+        evaluating anything; returns the full parameters (defaults filled in)."""
+        if field not in FIELDS:
+            raise unknown_name("field", field, FIELDS, field="field")
+        if field not in self.fields:
+            raise ModeselError(f"family '{self.name}' does not describe field '{field}'"
                                f" (it describes {', '.join(self.fields)})", field="family")
         if not isinstance(count, (int, np.integer)) or isinstance(count, bool) or count < 1:
             raise ModeselError(f"count must be an integer >= 1, got {count!r}", field="count")
@@ -116,14 +125,20 @@ class Family(ABC):
                 raise ModeselError(f"parameter '{key}'={value:g} outside [{p.low:g}, {p.high:g}]",
                                    field=f"params.{key}")
             full[key] = value
-        x = np.asarray(x, dtype=float)
-        phi, dphi, ddphi = self.evaluate(x, int(count), context, full)
-        return ShapeSet(context.field, self.name, x, np.atleast_2d(phi), np.atleast_2d(dphi),
-                        np.atleast_2d(ddphi), full)
+        return full
 
     @abstractmethod
     def evaluate(self, x: np.ndarray, count: int, context: FieldContext, params: dict):
         """Return (phi, dphi, ddphi), each (count, len(x))."""
+
+    def breakpoints(self, count: int, context: FieldContext, params: dict):
+        """Normalised positions x in (0, 1) where the shapes are only piecewise
+        smooth (a derivative jumps: finite-element boundaries), or None for
+        shapes smooth on the whole span. Quadrature that puts interval ends
+        there integrates them exactly; Gauss points straddling a jump do not
+        (20 `fem` torsion modes on 40 such nodes: frequencies 3.7 % off).
+        `params` are the full parameters (defaults filled in)."""
+        return None
 
 
 _REGISTRY: dict[str, Family] = {}
@@ -153,6 +168,36 @@ def families(field: str | None = None) -> list[Family]:
 def default_stations(n: int = 201) -> np.ndarray:
     """Default normalised stations for sampling shapes."""
     return np.linspace(0.0, 1.0, n)
+
+
+def check_field_modes(field: str, family: str, count, params=None, *, file=None, where=None) -> None:
+    """Validate a family/count/parameters choice for `field` before any
+    evaluation; errors name `file` and the dotted `where` (e.g.
+    'modes.tower_fa') of the input that made the choice."""
+    try:
+        if not isinstance(family, str):
+            raise ModeselError(f"family must be a name, got {family!r}", field="family")
+        if not isinstance(params or {}, dict):
+            raise ModeselError(f"params must be a table of numbers, got {params!r}", field="params")
+        try:
+            fam = get_family(family)
+        except ModeselError as exc:
+            raise ModeselError(exc.message, field="family") from None
+        fam.validate(field, count, dict(params or {}))
+    except ModeselError as exc:
+        sub = exc.field if exc.field and exc.field != "field" else None
+        raise ModeselError(exc.message, file=file if file is not None else exc.file,
+                           field=".".join(p for p in (where, sub) if p) or None) from None
+
+
+def shape_breakpoints(field: str, family: str, count: int, context: FieldContext | None = None,
+                      **params):
+    """Front function: `Family.breakpoints` of `count` shapes of `family` for
+    `field` (validated like `mode_shapes`), or None."""
+    context = context or FieldContext(field)
+    fam = get_family(family)
+    checked = fam.shapes(np.array([1.0]), count, context, **params)
+    return fam.breakpoints(count, context, dict(checked.params))
 
 
 def mode_shapes(field: str, family: str, count: int, context: FieldContext | None = None,

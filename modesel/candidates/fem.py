@@ -119,6 +119,11 @@ class Fem(Family):
             array.flags.writeable = False     # shared through the cache
         return omega, nodes, vectors
 
+    def breakpoints(self, count, context, params):
+        """Element boundaries (normalised): phi'' (bending) or phi' (torsion) jump there."""
+        _, nodes, _ = self.modal_analysis(context, count, params)
+        return (nodes[1:-1] - nodes[0]) / (nodes[-1] - nodes[0])
+
     def evaluate(self, x, count, context, params):
         _, nodes, vectors = self.modal_analysis(context, count, params)
         sample = beam_fem.sample_torsion if context.field in TORSION_FIELDS else beam_fem.sample_bending

@@ -6,11 +6,16 @@ from modesel.files import atomic_write_text  # noqa: F401  (shared by the comman
 
 
 def load_modeset(path):
-    """ModeSet from a JSON file, or None."""
+    """ModeSet from a JSON file (families, counts and parameters checked,
+    errors naming the file and field), or None."""
     if path is None:
         return None
+    from modesel.candidates.base import check_field_modes
     from modesel.modeset import ModeSet
-    return ModeSet.from_json(path)
+    modeset = ModeSet.from_json(path)
+    for field, fm in modeset.fields.items():
+        check_field_modes(field, fm.family, fm.count, fm.params, file=str(path), where=f"fields.{field}")
+    return modeset
 
 
 def positive_float(text: str) -> float:

@@ -7,6 +7,7 @@ scene linearised about its initial state (zero elastic deflection); with
 from __future__ import annotations
 
 import json
+import math
 
 from modesel.commands._common import load_modeset
 from modesel.errors import ModeselError
@@ -27,8 +28,8 @@ def _parse_rpm(text):
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise ModeselError(f"--rpm must be comma-separated numbers, got {text!r}", field="--rpm") from None
-    if not values or any(v < 0 for v in values):
-        raise ModeselError(f"--rpm needs non-negative speeds, got {text!r}", field="--rpm")
+    if not values or any(not math.isfinite(v) or v < 0 for v in values):
+        raise ModeselError(f"--rpm needs finite non-negative speeds, got {text!r}", field="--rpm")
     return values
 
 

@@ -6,7 +6,10 @@ Options override the study file: --n-trials, --timeout [s], --n-jobs
 (parallel processes), --storage (SQLAlchemy URL shared with `modesel worker`;
 default: an Optuna journal file in DIR), --seed. Running again with the same
 --out resumes the study: finished trials are kept, interrupted ones are
-queued again, and --n-trials more are run.
+queued again, and --n-trials more are run. Ctrl-C (SIGINT) or SIGTERM stops
+the study gracefully: the finished trials stay in the storage and their
+results (trials.csv, pareto.csv, best_modeset.json, report.html) are written
+before the command exits (code 130 or 143) with one line.
 """
 from __future__ import annotations
 
@@ -16,7 +19,7 @@ import sys
 from pathlib import Path
 
 from modesel.commands._common import positive_float
-from modesel.errors import ModeselError
+from modesel.errors import Interrupted, ModeselError
 
 
 def positive_int(text: str) -> int:
@@ -68,6 +71,22 @@ def _say(msg: str) -> None:
     print(f"modesel: {msg}", file=sys.stderr)
 
 
+def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
+    """Write the results of the finished trials (ignoring a second Ctrl-C)
+    and return the one-line `Interrupted` error to raise."""
+    from modesel.report import refresh
+    signal_name = "SIGTERM" if type(exc).__name__ == "Terminated" else "SIGINT"
+    try:
+        summary = refresh(out, engine=engine)
+        ranked = summary["ranked"]
+        done = int((ranked["status"] == "COMPLETE").sum()) if not ranked.empty else 0
+        kept = f"{done} evaluated mode sets kept, results written to {out}"
+    except (ModeselError, KeyboardInterrupt) as problem:
+        kept = f"finished trials kept in the storage (results not written: {problem or 'interrupted'})"
+    return Interrupted(f"interrupted ({signal_name}): {kept}; run the same command again to resume",
+                       signal_name=signal_name)
+
+
 def run(args, engine=None) -> int:
     from modesel.report import refresh
     from modesel.results import write_run_info
@@ -84,13 +103,8 @@ def run(args, engine=None) -> int:
         outcome = run_search(study, out_dir=out, storage=storage, n_trials=args.n_trials,
                              timeout=args.timeout, n_jobs=args.n_jobs, seed=args.seed, engine=engine,
                              log=_say)
-    except KeyboardInterrupt:   # keep what was done: results of the finished trials
-        try:
-            refresh(out, engine=engine)
-            _say(f"interrupted; results of the finished trials are in {out}; run again to resume")
-        except (ModeselError, KeyboardInterrupt):
-            pass
-        raise
+    except KeyboardInterrupt as exc:   # keep what was done: results of the finished trials
+        raise _interrupted(exc, out, engine) from None
     write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
     summary = refresh(out, engine=engine, log=_say)
     total = len(outcome.optuna_study.get_trials(deepcopy=False))

@@ -12,13 +12,14 @@ generator torque) go through `Built.M_F`.
 """
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 
-from modesel.errors import ModeselError
+from modesel.errors import ModeselError, PhysicallyUnstable, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.surrogate_sim import linearize as _lin
 from modesel.surrogate_sim.effects import select as select_effects
@@ -34,6 +35,11 @@ from modesel.surrogate_sim.system import Prescribed
 DRIVETRAIN_DOFS = ("DrTr", "HSSTw")
 #: rotor azimuths over which the multi-blade linearisation is averaged
 MBC_AZIMUTHS = 12
+#: rigid-body coordinates: their zero-frequency (or drifting) modes are not elastic instabilities
+RIGID_BODY_DOFS = ("GeAz", "Yaw", "PtfmSurge", "PtfmPitch")
+#: a real eigenvalue below this fraction of the largest |eigenvalue| (plus an
+#: absolute 1e-6 1/s) is round-off of the finite-difference linearisation
+STABILITY_NOISE = 1e-7
 
 
 @dataclass
@@ -247,6 +253,27 @@ def _collective(pitch) -> float:
     return float(np.mean(np.atleast_1d(pitch)))
 
 
+#: units of the output channels (outputs.py), OpenFAST's
+_CHANNEL_UNITS = (
+    (r"Time", "s"), (r"Azimuth|TTDspTwst|PtfmPitch|NacYaw", "deg"), (r"RotSpeed|GenSpeed", "rpm"),
+    (r"TTDsp(FA|SS)|OoPDefl\d|IPDefl\d|PtfmSurge", "m"), (r"RotThrust", "kN"),
+    (r"RotTorq|GenTq|TwrBsMyt|RootMyc\d", "kN-m"), (r"GenPwr", "kW"),
+    (r"Q_(TFA|TSS|B\d[FE])\d+|Q_PtfmSurge", "m"), (r"Q_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad"),
+    (r"QD_(TFA|TSS|B\d[FE])\d+|QD_PtfmSurge", "m/s"), (r"QD_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad/s"),
+)
+
+
+def channel_unit(name: str) -> str | None:
+    """Unit of a simulation output channel (OpenFAST's), None if unknown."""
+    return next((unit for pattern, unit in _CHANNEL_UNITS if re.fullmatch(pattern, name)), None)
+
+
+def _name(built: Built, index: str) -> str:
+    names = built.model.system.free
+    i = int(index)
+    return names[i] if 0 <= i < len(names) else index
+
+
 def _bounds(built: Built) -> np.ndarray:
     """Physical bounds of |q| for divergence detection: half the beam
     length for elastic tip-normalised coordinates, 1e6 rad for angles."""
@@ -280,17 +307,73 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     if n == 0:
         raise ModeselError("the scene has no free degree of freedom", file=scene.path, field="dofs")
     lin = _lin.linearize(built.M_F, built.q0 * 0, built.qd0, built.model.system.free)
+    if not all(np.all(np.isfinite(a)) for a in (lin.M, lin.C, lin.K)):
+        raise ModeselError("the equations are not finite at the initial state (check the turbine's "
+                           "properties and the scene's parameters)", file=scene.path)
+    if scene.solver.get("stability_check", True):
+        check_static_stability(lin, file=scene.path, fields=_coordinate_fields(built))
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * m.frequency_hz for m in _lin.modes(lin) if abs(m.damping_ratio) < 1.0])
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
-    integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
-                      rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
-                      max_step=float(scene.solver.get("max_step", np.inf)), bounds=_bounds(built),
-                      stiffness_ratio=ratio)
+    try:
+        integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
+                          rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
+                          max_step=float(scene.solver.get("max_step", np.inf)), bounds=_bounds(built),
+                          stiffness_ratio=ratio)
+    except SimulationDiverged as exc:     # name the coordinate and the scene
+        reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(built, m.group(1))} ", exc.reason)
+        raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
     df = channels(built, integ)
+    df.attrs["units"] = {c: u for c in df.columns if (u := channel_unit(c)) is not None}
     return SimulationResult(df, n, wall, float(integ.t[-1]), list(built.model.system.free), method, ratio,
                             integ.n_rhs)
+
+
+def _coordinate_fields(built: Built) -> dict:
+    """{coordinate: what it is} for messages: the field of an elastic
+    coordinate, 'drivetrain' for DrTr/HSSTw."""
+    out = {d: "drivetrain" for d in DRIVETRAIN_DOFS}
+    for fld, dofs in built.model.field_dofs.items():
+        groups = dofs if dofs and isinstance(dofs[0], tuple) else [dofs]
+        for group in groups:
+            out.update({d: fld for d in group})
+    return out
+
+
+def check_static_stability(lin, *, file=None, fields=None) -> None:
+    """Raise `PhysicallyUnstable` when the linearised model has a statically
+    unstable elastic mode: a real positive eigenvalue lambda of the
+    first-order system [[0, I], [-M^-1 K, -M^-1 C]] (a negative effective
+    stiffness: no damping can hold it, only gyroscopic coupling could, and
+    that would make the eigenvalue complex), whose eigenvector is dominated
+    (largest kinetic-energy share |phi_i|^2 M_ii, as `linearize.modes`) by an
+    elastic or drivetrain coordinate. Zero-frequency and drifting rigid-body
+    modes (free rotor, yaw, platform: RIGID_BODY_DOFS) are not flagged, nor
+    real eigenvalues within round-off of zero (STABILITY_NOISE)."""
+    n = len(lin.names)
+    if n == 0:
+        return
+    import scipy.linalg
+    Minv_K = np.linalg.solve(lin.M, lin.K)
+    Minv_C = np.linalg.solve(lin.M, lin.C)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv_K, -Minv_C]])
+    lam, vec = scipy.linalg.eig(A)
+    noise = STABILITY_NOISE * float(np.abs(lam).max()) + 1e-6
+    diag = np.abs(np.diag(lin.M))
+    worst = None
+    for i in np.flatnonzero((lam.real > noise) & (np.abs(lam.imag) <= noise)):
+        label = lin.names[int(np.argmax(np.abs(vec[:n, i]) ** 2 * diag))]
+        if label in RIGID_BODY_DOFS:
+            continue
+        if worst is None or lam[i].real > worst[1]:
+            worst = (label, float(lam[i].real))
+    if worst is not None:
+        what = (fields or {}).get(worst[0])
+        raise PhysicallyUnstable(f"{what} ({worst[0]})" if what else worst[0], worst[1], file=file,
+                                 detail="e.g. a tower-top mass beyond the buckling load; check the "
+                                        "masses and stiffnesses (or set [solver] stability_check = false "
+                                        "to simulate it anyway)")
 
 
 # ------------------------------------------------------------------ linearisation

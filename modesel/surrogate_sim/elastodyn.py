@@ -251,6 +251,8 @@ def _tower(path: Path, length: float):
     ei_fa = _column(tw, "TwFAStif", deck) * num("AdjFASt", "AdjFASt")
     ei_ss = _column(tw, "TwSSStif", deck) * num("AdjSSSt", "AdjSSSt")
     _check_fractions(fraction, "HtFract", deck)
+    for values, label in ((mass, "TMassDen"), (ei_fa, "TwFAStif"), (ei_ss, "TwSSStif")):
+        _check_positive(values, label, deck)
     ei_mean = 0.5 * (ei_fa + ei_ss)
     note = (f"{path.name}: no torsion properties in ElastoDyn; tower GJ = EI/(1+nu) and polar mass "
             f"inertia 2*rho*EI/E of a thin-walled steel tube (E={STEEL_YOUNG_MODULUS:.3g} Pa, "
@@ -294,9 +296,19 @@ def _blade(path: Path, length: float, hub_radius: float):
         notes=(note,) + tuple(deck.notes()),
         stiffness_tuners={"blade_flap": [num("FlStTunr1", "FlStTunr(1)"), num("FlStTunr2", "FlStTunr(2)")]},
         source=str(path))
+    for values, label in ((beam.mass, "BMassDen"), (beam.ei_1, "FlpStff"), (beam.ei_2, "EdgStff")):
+        _check_positive(values, label, deck)
     shapes = {"blade_flap": [_coefficients(bl, "BldFl1Sh", deck), _coefficients(bl, "BldFl2Sh", deck)],
               "blade_edge": [_coefficients(bl, "BldEdgSh", deck)]}
     return beam, shapes
+
+
+def _check_positive(values, label, deck):
+    """Distributed mass and stiffness (adjustment factors applied) must be > 0."""
+    bad = np.flatnonzero(~(np.asarray(values, float) > 0))
+    if len(bad):
+        raise ModeselError(f"must be > 0 at every station (adjustment factor applied), got "
+                           f"{values[bad[0]]:g} at station {bad[0] + 1}", file=str(deck.path), field=label)
 
 
 def _check_fractions(fraction, label, deck):

@@ -50,11 +50,11 @@ reaction moments (TwrBsMyt, RootMyc<b>, see outputs.py).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from modesel.candidates.base import mode_shapes
+from modesel.candidates.base import mode_shapes, shape_breakpoints
 from modesel.modeset import ModeSet
 from modesel.surrogate_sim.bodies import Joint, RigidBody, Rotation
 from modesel.surrogate_sim.equations import elementary_rotation
@@ -68,6 +68,17 @@ RIGID_DOFS = ("GeAz", "DrTr", "HSSTw", "Yaw", "PtfmSurge", "PtfmPitch")
 DRIVETRAINS = ("elastodyn", "two_spring")
 TOWER_BASE_REACTION = "TwrBsRyt"
 FINE_POINTS = 801            # grid for the axial-shortening integrals
+#: quadrature nodes per mode of the richest field on a beam (at least `min_nodes`):
+#: mode k has about k half-waves, and Gauss quadrature of its curvature (or
+#: torsion-rate) squared needs several points per half-wave, piecewise shapes
+#: (`fem` elements) more. 40 nodes with 20 torsion modes put the 2nd-4th engine
+#: frequencies 3.7 % below the converged ones; 12 per mode: < 0.1 %.
+NODES_PER_MODE = 12
+#: the engine works in a mass-orthogonal basis above this raw condition number
+#: (beam mass only; the tower-top inertia raises it further): `linear` torsion
+#: with 6 modes (8.8e7 raw, 1e10 with the RNA) put the 2nd frequency 1.2e-5 below
+#: the 9-mode one, a Ritz-bound violation; 1e4 keeps round-off below ~1e-11
+ENGINE_ILL_CONDITIONED = 1e4
 
 
 def root_reaction(blade: int) -> str:
@@ -148,9 +159,53 @@ class TurbineModel:
 
 
 def _shapes_for(turbine, fld, modes, rotor_speed):
+    """Callable x -> ShapeSet of `fld`'s modes. A family whose raw mass
+    matrix is ill-conditioned (condition number > ENGINE_ILL_CONDITIONED,
+    e.g. 10 `polynomial` modes: 6e14) is used in its mass-orthogonal basis
+    with unit tip values (`shape_integrals.conditioned_shapes`): same space of
+    shapes, so the same physics, without the round-off that would otherwise
+    swamp the equations (first shape unchanged; coordinates still read as tip
+    deflections)."""
     from modesel.candidates.context import field_context
+    from modesel.surrogate_sim.shape_integrals import conditioned_shapes
     ctx = field_context(turbine, fld, rotor_speed=rotor_speed)
-    return lambda x: mode_shapes(fld, modes.family, modes.count, ctx, x=x, **modes.params)
+
+    def raw(x):
+        return mode_shapes(fld, modes.family, modes.count, ctx, x=x, **modes.params)
+
+    beam = turbine.blade if fld.startswith("blade") else turbine.tower
+    return conditioned_shapes(beam, raw, fld, threshold=ENGINE_ILL_CONDITIONED)[0]
+
+
+def _quadrature_beam(turbine, beam, modeset: ModeSet, fields, rotor_speed: float):
+    """`beam` with extra stations at the breakpoints of its fields' shapes
+    (`Family.breakpoints`: element boundaries of `fem` shapes), properties
+    interpolated linearly there (the same piecewise-linear functions, so the
+    same beam): every quadrature interval then lies inside one element, where
+    the shapes are polynomials that Gauss points integrate (almost) exactly."""
+    from modesel.candidates.context import field_context
+    extra = []
+    for fld in fields:
+        if fld in modeset:
+            fm = modeset[fld]
+            x = shape_breakpoints(fld, fm.family, fm.count,
+                                  field_context(turbine, fld, rotor_speed=rotor_speed), **fm.params)
+            if x is not None:
+                extra.append(beam.span[0] + np.asarray(x, float) * beam.length)
+    if not extra:
+        return beam
+    span = np.asarray(beam.span, float)
+    new = np.union1d(span, np.concatenate(extra))
+    new = new[np.concatenate([[True], np.diff(new) > 1e-9 * beam.length])]
+    props = {k: np.interp(new, span, np.asarray(getattr(beam, k), float))
+             for k in ("mass", "ei_1", "ei_2", "gj", "polar_inertia", "twist")}
+    return replace(beam, span=new, **props)
+
+
+def _nodes_for(modeset: ModeSet, fields, min_nodes: int) -> int:
+    """Quadrature nodes of a beam carrying `fields` (NODES_PER_MODE)."""
+    counts = [modeset[f].count for f in fields if f in modeset]
+    return max(int(min_nodes), NODES_PER_MODE * max(counts, default=0))
 
 
 def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=None,
@@ -165,7 +220,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     {name: Prescribed}. pitch [rad] collective (fixed). drivetrain:
     "elastodyn" or "two_spring" (then HSSTw is a DOF and the gearbox has
     `gearbox_inertia` [kg m^2, LSS side] about the shaft). reactions: add
-    the fixed reaction coordinates (module doc). Units SI.
+    the fixed reaction coordinates (module doc). min_nodes: quadrature nodes
+    per beam, raised to NODES_PER_MODE per mode for many modes. Units SI.
     """
     fixed = dict(fixed or {})
     prescribed = dict(prescribed or {})
@@ -195,7 +251,10 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     if reactions:
         tower_rot = [Rotation(1, {TOWER_BASE_REACTION: 1.0})]
         reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
-    s_nodes, w_nodes = beam_quadrature(t.tower.span, min_nodes)
+    tower_field_names = ("tower_fa", "tower_ss", "tower_torsion")
+    tower_nodes = _nodes_for(modeset, tower_field_names, min_nodes)
+    tower_beam = _quadrature_beam(t, t.tower, modeset, tower_field_names, 0.0)
+    s_nodes, w_nodes = beam_quadrature(tower_beam.span, tower_nodes)
     fine_s = np.linspace(0, t.tower.length, FINE_POINTS)
     tower_fields = []
     for fld in ("tower_fa", "tower_ss", "tower_torsion"):
@@ -209,8 +268,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             tower_fields.append(evaluate_field(fld, dofs, fn, s_nodes, t.tower.length, fine_s, ratios,
                                                getattr(t.tower, "stiffness_tuners", {}).get(fld, ())))
             shapes[fld] = fn
-    tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), t.tower,
-                                      tower_fields, shortening=geometric_stiffening, min_nodes=min_nodes)
+    tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
+                                      tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes)
     bodies.append(tower)
     tips["tower"] = ttip
     weights["tower"] = w_nodes
@@ -247,7 +306,10 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
         blade_fields_spec = [(f, modeset[f]) for f in ("blade_flap", "blade_edge") if f in modeset]
         blade_fields = tuple(f for f, _ in blade_fields_spec)
         L = t.blade.length
-        sb_nodes, wb_nodes = beam_quadrature(t.blade.span, min_nodes)
+        blade_nodes = _nodes_for(modeset, ("blade_flap", "blade_edge"), min_nodes)
+        blade_beam = _quadrature_beam(t, t.blade, modeset, ("blade_flap", "blade_edge"),
+                                      rotor_speed_for_shapes)
+        sb_nodes, wb_nodes = beam_quadrature(blade_beam.span, blade_nodes)
         fine_b = np.linspace(0, L, FINE_POINTS)
         evaluated = {}
         for fld, modes in blade_fields_spec:
@@ -274,8 +336,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                                         at_tip.phi[:, 0], at_tip.dphi[:, 0] / L, fine.dphi / L,
                                         tuple(t.blade.damping_ratio.get(fld, ())),
                                         tuple(getattr(t.blade, "stiffness_tuners", {}).get(fld, ()))))
-            body, btip = build_flexible_body(f"blade{b}", bj, t.blade, flds,
-                                             shortening=geometric_stiffening, min_nodes=min_nodes)
+            body, btip = build_flexible_body(f"blade{b}", bj, blade_beam, flds,
+                                             shortening=geometric_stiffening, min_nodes=blade_nodes)
             body.nodes = body.nodes - np.array([0.0, 0.0, root])       # origin at the root
             btip["length"] -= root
             w_body = wb_nodes

@@ -27,6 +27,7 @@ naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
     [solver]
     method = "auto"                  # auto | RK45 | DOP853 | Radau | BDF | LSODA
     rtol = 1e-8
+    stability_check = true           # refuse statically unstable configurations (api.simulate)
 """
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modesel.candidates.base import check_field_modes
 from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS, FieldModes, ModeSet
 from modesel.surrogate_sim.effects import KEYS as EFFECT_KEYS
@@ -55,12 +57,16 @@ OVERRIDES = {
     "generator_inertia": ("generator_inertia", None),
     "hub_radius": ("hub_radius", "hub"),
     "nacelle_yaw_inertia": ("nacelle_yaw_inertia", None),
+    "nacelle_mass": ("nacelle_mass", None),
 }
+NON_NEGATIVE_OVERRIDES = ("platform_mass", "platform_inertia", "generator_inertia", "hub_radius",
+                          "nacelle_yaw_inertia", "nacelle_mass")
 DOF_KEYS = ("free", "fixed", "constant_speed")
 RIGID = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
 INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
                 "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
-SOLVER_KEYS = ("method", "rtol", "atol", "max_step")
+SOLVER_KEYS = ("method", "rtol", "atol", "max_step", "stability_check")
+SOLVER_METHODS = ("auto", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 ANGLE_KEYS = ("Azimuth", "NacYaw", "PtfmPitch", "BlPitch", "TTDspTwst")
 
 
@@ -131,12 +137,16 @@ def load_scene(path) -> Scene:
     path = Path(path)
     if not path.exists():
         raise ModeselError("scene file not found", file=str(path))
+    if not path.is_file():
+        raise ModeselError("not a file (give a TOML scene, an ElastoDyn .dat or an .fst)", file=str(path))
     if path.suffix.lower() in (".dat", ".fst"):
         return scene_from_elastodyn(path)
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise ModeselError(f"malformed TOML: {exc}", file=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModeselError(f"cannot read the scene: {exc}", file=str(path)) from None
     return scene_from_dict(data, path)
 
 
@@ -160,13 +170,24 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
     try:
         modes = ModeSet.from_dict({"fields": modes_tbl}, file=file)
     except ModeselError as exc:
-        raise ModeselError(exc.message, file=file, field=f"modes.{exc.field or ''}".rstrip(".")) from None
+        sub = (exc.field or "").removeprefix("fields").lstrip(".")
+        raise ModeselError(exc.message, file=file, field=f"modes.{sub}".rstrip(".")) from None
+    for fld, fm in modes.fields.items():
+        check_field_modes(fld, fm.family, fm.count, fm.params, file=file, where=f"modes.{fld}")
     dofs = data.get("dofs", {})
     _check_keys(dofs, DOF_KEYS, file, "dofs")
-    free = tuple(dofs.get("free", ()))
+    free = dofs.get("free", [])
+    if not isinstance(free, list) or not all(isinstance(d, str) for d in free):
+        raise ModeselError(f"must be a list of DOF names, e.g. [\"GeAz\"], got {free!r}", file=file,
+                           field="dofs.free")
+    free = tuple(free)
     for d in free:
         if d not in RIGID:
             raise unknown_name("rigid DOF", d, RIGID, file=file, field="dofs.free")
+    for key in ("fixed", "constant_speed"):
+        if not isinstance(dofs.get(key, {}), dict):
+            raise ModeselError(f"must be a table {{DOF = value}}, got {dofs[key]!r}", file=file,
+                               field=f"dofs.{key}")
     fixed = {}
     for d, v in dofs.get("fixed", {}).items():
         if d not in RIGID:
@@ -193,12 +214,28 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
     validate_effects(effects, file, None if path is None else path.parent)
     solver = data.get("solver", {})
     _check_keys(solver, SOLVER_KEYS, file, "solver")
+    solver = _solver(solver, file)
     over = data.get("overrides", {})
     _check_keys(over, OVERRIDES, file, "overrides")
     if over:
         turbine = apply_overrides(turbine, over, file)
     return Scene(str(data.get("name", path.stem if path else "scene")), turbine, tmax, dt, modes, free, fixed,
                  speed, initial, dict(effects), dict(solver), file)
+
+
+def _solver(table: dict, file) -> dict:
+    """[solver] with checked values: method name, positive tolerances and step."""
+    out = dict(table)
+    if "method" in out:
+        if not isinstance(out["method"], str) or out["method"] not in SOLVER_METHODS:
+            raise unknown_name("solver method", out["method"], SOLVER_METHODS, file=file, field="solver.method")
+    for key in ("rtol", "atol", "max_step"):
+        if key in out:
+            out[key] = _number(out[key], file, f"solver.{key}", positive=True)
+    if "stability_check" in out and not isinstance(out["stability_check"], bool):
+        raise ModeselError(f"must be true or false, got {out['stability_check']!r}", file=file,
+                           field="solver.stability_check")
+    return out
 
 
 def scene_from_elastodyn(path: Path) -> Scene:
@@ -252,6 +289,8 @@ def apply_overrides(turbine, over: dict, file=None):
             value = tuple(_number(v, file, f"overrides.{key}") for v in value)
         else:
             value = _number(value, file, f"overrides.{key}")
+        if key in NON_NEGATIVE_OVERRIDES and min(np.atleast_1d(value)) < 0:
+            raise ModeselError(f"must be >= 0, got {value!r}", file=file, field=f"overrides.{key}")
         if unit == "deg":
             value = np.deg2rad(value)
         elif unit == "deg3":

@@ -32,6 +32,12 @@ T = R^-1 (diag R > 0), so that T^T M T = I. Every matrix is computed in the
 new basis from the transformed samples (psi, psi', psi'' = T^T (phi, ...)),
 so nothing ill-conditioned is formed; `transform` = T maps the new
 coordinates back, q_raw = T q.
+
+The multibody engine uses the same factorisation (`conditioned_shapes`):
+an ill-conditioned field is simulated in the mass-orthogonal basis, each new
+shape rescaled to a unit tip value so that a coordinate still reads as the
+tip deflection of its shape (the first shape is the family's first shape
+unchanged, QR being triangular).
 """
 from __future__ import annotations
 
@@ -254,27 +260,21 @@ def shape_integrals(beam, shapes, *, direction=None, top_mass: float = 0.0, grav
     inertia = at(beam.polar_inertia)
     density = inertia if kind == "torsion" else m
     weighted = np.sqrt(w * density)[None, :] * phi          # A, with M = A A^T (eq. B1/A7)
-    # 2-norm condition number of M from the singular values of A (never forms M)
-    singular = np.linalg.svd(weighted, compute_uv=False)
-    tiny = singular[0] * max(weighted.shape) * np.finfo(float).eps
-    condition = float((singular[0] / singular[-1]) ** 2) if singular[-1] > tiny else np.inf
-    if not np.isfinite(condition):
-        what = "polar inertia" if kind == "torsion" else "mass"
-        raise ModeselError(f"mass matrix singular (shapes linearly dependent or zero {what}), "
-                           f"condition number {condition:.3g}", file=source, field=name)
+    condition = mass_condition_number(weighted, kind, source, name)
 
     # mass-orthonormalisation (module docstring): transform the sampled shapes
     do_orth = condition > ILL_CONDITIONED if orthonormalise == "auto" else bool(orthonormalise)
-    if do_orth:
-        r = np.linalg.qr(weighted.T, mode="r")
-        r = r * np.sign(np.diag(r))[:, None]
-        transform = scipy.linalg.solve_triangular(r, np.eye(n))
+    # an ill-conditioned basis is always worked in orthonormalised; with
+    # orthonormalise=False the results are mapped back to the raw basis at the end
+    back_to_raw = not do_orth and condition > ILL_CONDITIONED
+    if do_orth or back_to_raw:
+        transform = orthonormalising_transform(weighted)
         notes.append(f"mass matrix condition number {condition:.3g}: basis mass-orthonormalised "
-                     f"(QR, q_raw = transform q).")
+                     f"(QR, q_raw = transform q)." if do_orth else
+                     f"mass matrix condition number {condition:.3g}: matrices given for the raw "
+                     f"shapes as asked, frequencies and damping computed in the mass-orthonormal basis.")
     else:
         transform = np.eye(n)
-        if condition > ILL_CONDITIONED:
-            notes.append(f"mass matrix condition number {condition:.3g} but orthonormalisation disabled.")
     # ElastoDyn tuners scale the strain of raw mode i by sqrt(t_i): K_il -> sqrt(t_i t_l) K_il
     tuner = np.ones(n)
     if stiffness_tuners is not None:
@@ -340,7 +340,7 @@ def shape_integrals(beam, shapes, *, direction=None, top_mass: float = 0.0, grav
     eig = scipy.linalg.eigh(total, mass, eigvals_only=True)
     frequencies = np.sign(eig) * np.sqrt(np.abs(eig)) / (2.0 * np.pi)
 
-    return ShapeIntegrals(
+    result = ShapeIntegrals(
         field=name, family=sampled.family, direction=kind if kind != "vector" else tuple(d), length=L,
         mass=mass, stiffness=stiffness, damping=damping, geometric_stiffness=geometric,
         spin_softening_per_omega2=spin, frequencies_hz=frequencies,
@@ -358,6 +358,104 @@ def shape_integrals(beam, shapes, *, direction=None, top_mass: float = 0.0, grav
         M_thetatheta_1=-np.einsum("q,qab,jqbc->jac", dm, sk_p, sk_phi)
         - np.einsum("q,jqab,qbc->jac", dm, sk_phi, sk_p),                        # eq. A4, first order
         rotor_speed=float(rotor_speed), notes=tuple(notes))
+    return _in_raw_basis(result, transform) if back_to_raw else result
+
+
+#: ShapeIntegrals arrays linear in the mode index (axis 0) and bilinear (axes 0 and 1)
+_PER_MODE = ("tip_deflection", "tip_slope", "C_t", "C_r", "G_r", "O_e_j", "O_e", "M_xtheta_1",
+             "M_thetatheta_1")
+_PER_PAIR = ("mass", "stiffness", "damping", "spin_softening_per_omega2", "G_e")
+
+
+def _in_raw_basis(result: ShapeIntegrals, transform: np.ndarray) -> ShapeIntegrals:
+    """`result` computed for the shapes psi = T^T phi, expressed for the raw
+    shapes phi = R^T psi (R = T^-1): per-mode arrays X -> R^T X, matrices
+    X -> R^T X R (frequencies are basis-independent)."""
+    from dataclasses import replace
+    R = scipy.linalg.solve_triangular(transform, np.eye(transform.shape[0]))
+
+    def linear(x):
+        return np.einsum("aj,a...->j...", R, x)
+
+    def pair(x):
+        return np.einsum("aj,bk,ab...->jk...", R, R, x)
+
+    changes = {k: linear(getattr(result, k)) for k in _PER_MODE}
+    changes.update({k: pair(getattr(result, k)) for k in _PER_PAIR})
+    changes["geometric_stiffness"] = {k: pair(v) for k, v in result.geometric_stiffness.items()}
+    changes["transform"] = np.eye(transform.shape[0])
+    changes["orthonormalised"] = False
+    return replace(result, **changes)
+
+
+def mass_condition_number(weighted, kind="bending", source=None, name=None) -> float:
+    """2-norm condition number of M = A A^T from the singular values of
+    A = `weighted` (n, points) (never forms M); a singular M (linearly
+    dependent shapes, zero mass) is a ModeselError."""
+    singular = np.linalg.svd(weighted, compute_uv=False)
+    tiny = singular[0] * max(weighted.shape) * np.finfo(float).eps
+    condition = float((singular[0] / singular[-1]) ** 2) if singular[-1] > tiny else np.inf
+    if not np.isfinite(condition):
+        what = "polar inertia" if kind == "torsion" else "mass"
+        raise ModeselError(f"mass matrix singular (shapes linearly dependent or zero {what}), "
+                           f"condition number {condition:.3g}", file=source, field=name)
+    return condition
+
+
+def orthonormalising_transform(weighted) -> np.ndarray:
+    """T = R^-1 of the Householder QR A^T = Q R (diag R > 0), so that the
+    shapes psi = T^T phi have T^T M T = I (module docstring)."""
+    n = weighted.shape[0]
+    r = np.linalg.qr(weighted.T, mode="r")
+    r = r * np.sign(np.diag(r))[:, None]
+    return scipy.linalg.solve_triangular(r, np.eye(n))
+
+
+def transform_shapes(shapes: ShapeSet, transform: np.ndarray) -> ShapeSet:
+    """The shapes psi = T^T phi (and their derivatives) of `shapes`."""
+    T = np.asarray(transform, dtype=float).T
+    return ShapeSet(shapes.field, shapes.family, shapes.x, T @ shapes.phi, T @ shapes.dphi,
+                    T @ shapes.ddphi, dict(shapes.params))
+
+
+def conditioned_shapes(beam, shapes, field: str, *, threshold: float = ILL_CONDITIONED,
+                       points_per_interval: int = 8):
+    """(callable x -> ShapeSet, condition number of the raw mass matrix) for
+    the multibody engine.
+
+    `shapes` is a callable x -> ShapeSet of one field on `beam`. When the raw
+    mass matrix (beam mass; torsion: polar inertia) has a condition number
+    above `threshold`, the returned callable gives the mass-orthogonal shapes
+    psi_k = (T^T phi)_k / (T^T phi)_k(1): orthonormalised by QR (module
+    docstring), then rescaled to a unit tip value so that a generalised
+    coordinate still reads as the tip deflection (rotation) of its shape, and
+    psi_1 = phi_1. A new shape whose tip value is below 1e-6 of its largest
+    value cannot be tip-normalised (ModeselError). Otherwise `shapes` is
+    returned unchanged."""
+    quad = quadrature(beam, points_per_interval)
+    kind = "torsion" if field == "tower_torsion" else "bending"
+    density = np.interp(quad.s, beam.span, np.asarray(
+        beam.polar_inertia if kind == "torsion" else beam.mass, dtype=float))
+    sampled = evaluate_shapes(shapes, quad.x)
+    weighted = np.sqrt(quad.w * density)[None, :] * sampled.phi
+    condition = mass_condition_number(weighted, kind, getattr(beam, "source", None), field)
+    if condition <= threshold:
+        return shapes, condition
+    transform = orthonormalising_transform(weighted)
+    psi = transform.T @ sampled.phi
+    tip = transform.T @ evaluate_shapes(shapes, np.array([1.0])).phi[:, 0]
+    flat = np.abs(tip) <= 1e-6 * np.abs(psi).max(axis=1)
+    if flat.any():
+        raise ModeselError(f"the mass-orthogonalised shape {int(np.argmax(flat)) + 1} of this "
+                           f"ill-conditioned basis (condition number {condition:.3g}) has no tip motion "
+                           f"and cannot be tip-normalised; use fewer modes or another family",
+                           file=getattr(beam, "source", None), field=field)
+    transform = transform / tip[None, :]
+
+    def conditioned(x):
+        return transform_shapes(evaluate_shapes(shapes, x), transform)
+
+    return conditioned, condition
 
 
 def _direction(direction, field_name):

@@ -1,0 +1,122 @@
+"""Nothing lost: a study interrupted by SIGINT (Ctrl-C) or SIGTERM stops
+gracefully, keeps its finished trials, writes their results atomically and
+resumes without repeating them.
+
+The real tower study (studies/tower_free_decay.toml: NREL 5-MW tower free
+decay against OpenFAST, two worker processes) is copied to a temporary
+folder with a larger budget and stop_when_met = false, run as `modesel run`
+in a subprocess, interrupted with SIGINT once a few trials have finished,
+resumed and interrupted again with SIGTERM, then resumed to the end.
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import optuna
+import pandas as pd
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def tower_study(folder: Path) -> Path:
+    text = (REPO / "studies" / "tower_free_decay.toml").read_text()
+    data = REPO / "studies" / "data"
+    text = text.replace('path = "data/', f'path = "{data}/')
+    text = text.replace("n_trials = 30", "n_trials = 60").replace("stop_when_met = true", "stop_when_met = false")
+    assert f'path = "{data}/' in text and "n_trials = 60" in text and "stop_when_met = false" in text
+    path = folder / "study.toml"
+    path.write_text(text)
+    return path
+
+
+def start(study: Path, out: Path, *extra):
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.Popen([sys.executable, "-m", "modesel", "run", str(study), "--out", str(out), *extra],
+                            cwd=study.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def series_count(out: Path) -> int:
+    return len(list((out / "timeseries").glob("trial_*.csv")))
+
+
+def interrupt_after(proc, out: Path, more: int, sig, timeout: float = 120.0):
+    """Send `sig` once `more` new trial series have been written; return (code, stderr)."""
+    before = series_count(out) if (out / "timeseries").exists() else 0
+    deadline = time.monotonic() + timeout
+    while (out / "timeseries").exists() is False or series_count(out) < before + more:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the study produced no trials"
+        time.sleep(0.2)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err
+
+
+def stored_trials(out: Path):
+    from optuna.storages.journal import JournalFileBackend
+    storage = optuna.storages.JournalStorage(JournalFileBackend(str(out / "study.journal")))
+    return optuna.load_study(study_name="tower_free_decay", storage=storage).get_trials(deepcopy=False)
+
+
+def evaluated(trials) -> dict:
+    """{mode-set label: (trial number, values)} of the sets simulated (not repeats)."""
+    TS = optuna.trial.TrialState
+    return {t.user_attrs["modeset"]: (t.number, tuple(t.values)) for t in trials
+            if t.state == TS.COMPLETE and "duplicate_of" not in t.user_attrs}
+
+
+def check_results_complete(out: Path, labels: set) -> None:
+    """Every result file is whole (parses to the end) and lists every evaluated set."""
+    trials = pd.read_csv(out / "trials.csv")
+    assert set(trials.loc[trials["status"] == "COMPLETE", "modeset"]) == labels
+    pd.read_csv(out / "pareto.csv")
+    best = json.loads((out / "best_modeset.json").read_text())
+    assert best["label"] in labels
+    html = (out / "report.html").read_text()
+    assert html.rstrip().endswith("</html>")
+    assert not list(out.glob(".*.tmp")), "a temporary file of an atomic write was left behind"
+
+
+def test_interrupted_study_resumes_without_repeating_trials(tmp_path):
+    study = tower_study(tmp_path)
+    out = tmp_path / "out"
+
+    # 1. Ctrl-C while trials run: one line, exit 130, results of the finished trials written
+    code, err = interrupt_after(start(study, out), out, 3, signal.SIGINT)
+    lines = err.strip().splitlines()
+    assert code == 130, err
+    assert len(lines) == 1 and lines[0].startswith("modesel: interrupted (SIGINT)") and "Traceback" not in err
+    first = evaluated(stored_trials(out))
+    assert len(first) >= 3
+    check_results_complete(out, set(first))
+
+    # 2. the same command again resumes; SIGTERM behaves like SIGINT (exit 143)
+    code, err = interrupt_after(start(study, out), out, 2, signal.SIGTERM)
+    lines = err.strip().splitlines()
+    assert code == 143, err
+    assert len(lines) == 1 and lines[0].startswith("modesel: interrupted (SIGTERM)") and "Traceback" not in err
+    second = evaluated(stored_trials(out))
+    assert all(second[label] == first[label] for label in first)      # kept as they were
+    assert len(second) > len(first)
+    check_results_complete(out, set(second))
+
+    # 3. resume to the end: interrupted trials are queued again, nothing is simulated twice
+    proc = start(study, out, "--n-trials", "3")
+    stdout, err = proc.communicate(timeout=180)
+    assert proc.returncode == 0, err
+    trials = stored_trials(out)
+    final = evaluated(trials)
+    assert all(final[label] == second[label] for label in second)
+    assert len(final) >= len(second) + 1
+    TS = optuna.trial.TrialState
+    assert not [t.number for t in trials if t.state == TS.RUNNING]        # none left hanging
+    simulated = [t.user_attrs["modeset"] for t in trials if t.state == TS.COMPLETE
+                 and "duplicate_of" not in t.user_attrs]
+    assert len(simulated) == len(set(simulated))                          # no set simulated twice
+    check_results_complete(out, set(final))
+    assert f"{len(trials)} in the study" in stdout
