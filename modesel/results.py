@@ -77,8 +77,8 @@ def read_run_info(out_dir) -> dict:
         raise ModeselError(f"cannot read: {exc}", file=str(path)) from None
     for key in ("study_toml", "study_file", "storage"):
         if not isinstance(info, dict) or not isinstance(info.get(key), str):
-            raise ModeselError(f"missing or not a string (the file is damaged; run `modesel run` "
-                               f"again with the same --out)", file=str(path), field=key)
+            raise ModeselError("missing or not a string (the file is damaged; run `modesel run` "
+                               "again with the same --out)", file=str(path), field=key)
     return info
 
 

@@ -713,6 +713,8 @@ def _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, 
             _, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
             poll()
     except KeyboardInterrupt:
-        executor.shutdown(wait=False, kill_workers=True)
+        # stop the workers and wait until they are gone, so that no trial
+        # finishes after the results of the finished trials have been written
+        executor.shutdown(wait=True, kill_workers=True)
         raise
     return [f.result() for f in futures if f.result()]

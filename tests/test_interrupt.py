@@ -120,3 +120,34 @@ def test_interrupted_study_resumes_without_repeating_trials(tmp_path):
     assert len(simulated) == len(set(simulated))                          # no set simulated twice
     check_results_complete(out, set(final))
     assert f"{len(trials)} in the study" in stdout
+
+
+# --------------------------------------------------------------------------- atomic writes
+
+STUDY_WRITERS = ["modesel/results.py", "modesel/report.py", "modesel/reference.py", "modesel/search.py",
+                 *sorted(str(p.relative_to(REPO)) for p in (REPO / "modesel" / "commands").glob("*.py"))]
+
+
+@pytest.mark.parametrize("module", STUDY_WRITERS)
+def test_study_outputs_are_written_atomically(module):
+    """Every file the study and the commands write goes through
+    modesel.files.atomic_write_text (temporary file + os.replace)."""
+    import re
+    text = (REPO / module).read_text()
+    direct = re.findall(r"\.write_text\(|\.write_bytes\(|open\([^)]*[\"'][wa]b?[\"']|\.to_csv\(\s*(?![a-z_]+=)[^)\s]|savefig\(\s*[^b]",
+                        text)
+    assert not direct, (module, direct)
+
+
+def test_atomic_write_leaves_old_file_or_new_file(tmp_path, monkeypatch):
+    from modesel import files
+    target = tmp_path / "trials.csv"
+    files.atomic_write_text(target, "old\n")
+
+    def killed(src, dst):
+        raise KeyboardInterrupt       # interrupted between writing and renaming
+    monkeypatch.setattr(files.os, "replace", killed)
+    with pytest.raises(KeyboardInterrupt):
+        files.atomic_write_text(target, "new\n" * 1000)
+    assert target.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["trials.csv"]      # no temporary file left

@@ -11,14 +11,11 @@ Kinds, each provoked on the NREL 5-MW tower (paper_2dof_tower_shaft):
   anew at every evaluation, 1e8 m/s^2 per unit modal mass): no step is small
   enough to meet the tolerance.
 """
-import shutil
-import textwrap
-
 import numpy as np
 import pandas as pd
 import pytest
 
-from hardcase_tools import REPO, modes, scene
+from hardcase_tools import modes, scene
 from modesel.cli import main
 from modesel.errors import PhysicallyUnstable, SimulationDiverged
 from modesel.surrogate_sim import api

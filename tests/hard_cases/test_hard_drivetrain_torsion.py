@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from hardcase_tools import assert_method_justified, frequencies, modes, scene, simulate
+from hardcase_tools import assert_method_justified, modes, scene, simulate
+from modesel.surrogate_sim.api import linearize_scene
 
 GEARBOX_INERTIA = 1.0e4      # kg m^2, LSS side
 
@@ -53,7 +54,6 @@ def chain_frequencies(turbine):
 def test_drivetrain_and_torsion_frequencies_against_references():
     sc = stiff_scene()
     found = {}
-    from modesel.surrogate_sim.api import linearize_scene
     for m in linearize_scene(sc)[0]:
         found.setdefault(m.label, m.frequency_hz)
     chain = chain_frequencies(sc.turbine)
