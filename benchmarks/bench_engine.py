@@ -2,7 +2,7 @@
 
     python benchmarks/bench_engine.py [--tmax 60] [--runs 5]
 
-Cases on the NREL 5-MW land turbine (ElastoDyn deck in studies/data):
+Cases on the NREL 5-MW land turbine (ElastoDyn deck in modesel/turbine/data):
   land_3dof       tower FA 1 + SS 1 (elastodyn shapes), rotor free (GeAz), rigid blades
   land_tower4     the same with 4 'clamped' modes per tower direction (9 DOFs)
   full_turbine    tower FA/SS/torsion 1 each, 3 blades x (flap 1 + edge 1), GeAz + DrTr
@@ -30,12 +30,12 @@ import time
 import numpy as np
 
 from modesel.modeset import FieldModes, ModeSet
-from modesel.surrogate_sim import api
-from modesel.surrogate_sim import linearize as lin
-from modesel.surrogate_sim.elastodyn import load_turbine
-from modesel.surrogate_sim.integrate import choose_method, integrate
-from modesel.surrogate_sim.kernel import CompiledRHS
-from modesel.surrogate_sim.scene import Scene
+from modesel.simulation import api
+from modesel.multibody import linearize as lin
+from modesel.turbine.elastodyn import load_turbine
+from modesel.multibody.integrate import choose_method, integrate
+from modesel.multibody.kernel import CompiledRHS
+from modesel.simulation.scene import Scene
 
 
 def cases(turbine):

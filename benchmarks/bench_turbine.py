@@ -26,7 +26,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from modesel.modeset import FieldModes, ModeSet  # noqa: E402
-from modesel.surrogate_sim.api import load_scene, simulate  # noqa: E402
+from modesel.simulation.api import load_scene, simulate  # noqa: E402
 
 SCENE = os.path.join(os.path.dirname(__file__), "..", "studies", "scenes", "turbine_wind_11p4.toml")
 FIELDS = ("tower_fa", "tower_ss", "tower_torsion", "blade_flap", "blade_edge")

@@ -1,7 +1,7 @@
 """Aerodynamics (second paper, section 3, eqs. 51-52): deck reading, BEM, wind, tower drag.
 
 References used here, all outside the code under test:
-- the bundled NREL 5-MW C_P/C_T/C_Q table (studies/data/nrel5mw/NREL5MW_CPCTCQ.txt);
+- the bundled NREL 5-MW C_P/C_T/C_Q table (modesel/turbine/data/nrel5mw/NREL5MW_CPCTCQ.txt);
 - the published NREL 5-MW rated thrust (~800 kN at 11.4 m/s, 12.1 rpm);
 - analytic results: Betz optimum (a = 1/3, C_P = 16/27, C_T = 8/9), momentum
   theory C_T = 4 a F (1 - a) and Buhl's relation, Prandtl's asymptotics,
@@ -19,14 +19,14 @@ import pytest
 from scipy.optimize import brentq
 
 from modesel.errors import ModeselError
-from modesel.surrogate_sim.aero import (AeroBlade, BemOptions, BemSolver, Polar, PolarSet,
+from modesel.aero import (AeroBlade, BemOptions, BemSolver, Polar, PolarSet,
                                         TowerDrag, Wind, axial_induction, pitt_peters,
                                         prandtl_loss, read_aerodyn, skew_angles, steady_rotor,
                                         thrust_coefficient)
-from modesel.surrogate_sim.aero.bem import PITT_PETERS_FACTOR
+from modesel.aero.bem import PITT_PETERS_FACTOR
 
 HERE = os.path.dirname(__file__)
-DATA = os.path.join(HERE, "..", "studies", "data", "nrel5mw")
+DATA = os.path.join(HERE, "..", "modesel", "turbine", "data", "nrel5mw")
 AD_FILE = os.path.join(DATA, "NREL5MW_AD.dat")
 RPM = np.pi / 30.0
 

@@ -31,11 +31,11 @@ from hypothesis import strategies as st
 
 from modesel.cli import main
 from modesel.errors import ModeselError
-from modesel.reference import load_reference
-from modesel.study import parse_study
+from modesel.study.reference import load_reference
+from modesel.study.spec import parse_study
 
 REPO = Path(__file__).resolve().parents[1]
-NREL = REPO / "studies" / "data" / "nrel5mw"
+NREL = REPO / "modesel" / "turbine" / "data" / "nrel5mw"
 SCENE_2DOF = REPO / "studies" / "scenes" / "paper_2dof_tower_shaft.toml"
 
 

@@ -23,7 +23,7 @@ from modesel.candidates.cantilever import characteristic_roots, clamped_free_roo
 from modesel.cli import main
 from modesel.errors import ModeselError
 from modesel.modeset import FIELDS
-from modesel.surrogate_sim.beam import BeamProperties
+from modesel.turbine.beam import BeamProperties
 
 # Gauss-Legendre rule on [0, 1]: exact for polynomials of degree < 800,
 # ~1e-15 for the smooth shapes of mode <= 20.

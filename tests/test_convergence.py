@@ -8,7 +8,7 @@ import numpy as np
 import optuna
 import pytest
 
-from modesel.convergence import (METRICS, Criterion, StopWhenMet, dominant_frequency, metric,
+from modesel.study.metrics import (METRICS, Criterion, StopWhenMet, dominant_frequency, metric,
                                  r_squared)
 from modesel.errors import ModeselError
 

@@ -8,11 +8,11 @@ import pytest
 from openfast_io.FAST_writer import InputWriter_OpenFAST
 
 from modesel.errors import ModeselError
-from modesel.surrogate_sim import elastodyn
-from modesel.surrogate_sim.elastodyn import load_turbine, read_elastodyn
+from modesel.turbine import elastodyn
+from modesel.turbine.elastodyn import load_turbine, read_elastodyn
 
 ROOT = Path(__file__).resolve().parent.parent
-NREL = ROOT / "studies" / "data" / "nrel5mw"
+NREL = ROOT / "modesel" / "turbine" / "data" / "nrel5mw"
 ED = NREL / "NREL5MW_ED_Onshore.dat"
 TOWER = NREL / "NRELOffshrBsline5MW_Onshore_ElastoDyn_Tower.dat"
 BLADE = NREL / "NRELOffshrBsline5MW_Blade.dat"
@@ -304,7 +304,7 @@ def test_missing_required_input(tmp_path):
 def test_deck_without_outlist_end_is_read(tmp_path):
     """openfast_io loops forever on an OutList with no END line; the reader adds it."""
     import shutil
-    from modesel.surrogate_sim.elastodyn import read_elastodyn
+    from modesel.turbine.elastodyn import read_elastodyn
     src = "tests/data/openfast_free_decay/tower_fa_ss_shaft"
     for name in ("Spar_ED_ForED.dat", "NRELOffshrBsline5MW_Blade.dat",
                  "NRELOffshrBsline5MW_Offshore_ElastoDyn_Tower.dat"):

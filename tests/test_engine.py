@@ -3,11 +3,11 @@ OpenFAST and a second formulation (first paper sections 4.3-4.5)."""
 import numpy as np
 import pytest
 
-from modesel.surrogate_sim.api import build, linearize_scene, load_scene, simulate
-from modesel.surrogate_sim.bodies import Joint, RigidBody, Rotation
-from modesel.surrogate_sim.equations import KaneEquations
-from modesel.surrogate_sim.system import System
-from modesel.surrogate_sim import linearize as lin
+from modesel.simulation.api import build, linearize_scene, load_scene, simulate
+from modesel.multibody.bodies import Joint, RigidBody, Rotation
+from modesel.multibody.kane import KaneEquations
+from modesel.multibody.system import System
+from modesel.multibody import linearize as lin
 
 SCENES = "studies/scenes"
 
@@ -43,7 +43,7 @@ def test_rotating_blade_southwell_and_shape_integral_formula():
     shape-integral formula omega^2 = (K_e + Omega^2 (K_g + K_omega)) / M_e."""
     from modesel.candidates.base import mode_shapes
     from modesel.candidates.context import field_context
-    from modesel.surrogate_sim.shape_integrals import shape_integrals
+    from modesel.multibody.shape_integrals import shape_integrals
     scene = load_scene(f"{SCENES}/paper_rotating_blade.toml")
     omega = 12.1 * np.pi / 30
     f0 = {m.label: m.frequency_hz for m in linearize_scene(scene, rpm=0.0)[0]}
@@ -65,8 +65,8 @@ def test_rotating_blade_southwell_and_shape_integral_formula():
 def test_three_dof_land_conserves_energy():
     """Damping off, gravity on, rotor free at 5 rpm: total energy over 60 s
     drifts less than 1e-6 of the vibration energy."""
-    from modesel.surrogate_sim.energy import total_energy
-    from modesel.surrogate_sim.integrate import integrate
+    from modesel.multibody.energy import total_energy
+    from modesel.multibody.integrate import integrate
     scene = load_scene(f"{SCENES}/paper_3dof_land.toml")
     scene.effects["damping"] = False
     b = build(scene)
@@ -83,7 +83,7 @@ def test_openfast_free_decay_reproduced(tmp_path):
     Main_Spar_ED.outb: normalised RMS error <= 0.25 % (the paper: 0.27/0.52/0.02 %)."""
     import pandas as pd
     from modesel.cli import main
-    from modesel.surrogate_sim.openfast_output import read_openfast_output
+    from modesel.turbine.openfast_output import read_openfast_output
     case = "tests/data/openfast_free_decay/tower_fa_ss_shaft"
     out = tmp_path / "sim.csv"
     assert main(["simulate", f"{case}/Spar_ED_ForED.dat", "--tmax", "4", "--dt", "0.01", "--out", str(out)]) == 0
@@ -112,7 +112,7 @@ def test_batched_reaction_outputs_equal_per_sample_evaluation():
     """Load channels computed in one compiled call equal F_r - M_r qdd
     evaluated sample by sample."""
     from types import SimpleNamespace
-    import modesel.surrogate_sim.outputs as outputs
+    import modesel.model.outputs as outputs
     scene = load_scene(f"{SCENES}/paper_3dof_land.toml")
     run = simulate(scene, tmax=3.0, dt=0.5).outputs
     b = build(scene, reactions=True)

@@ -109,7 +109,7 @@ from modesel.export import export_modeset  # noqa: E402
 from modesel.modeset import ModeSet  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
-NREL = REPO / "studies" / "data" / "nrel5mw"
+NREL = REPO / "modesel" / "turbine" / "data" / "nrel5mw"
 DECK = NREL / "NREL5MW_ED_Onshore.dat"
 SPAR_FST = REPO / "tests" / "data" / "openfast_free_decay" / "tower_fa_ss_shaft" / "Main_Spar_ED.fst"
 
@@ -133,7 +133,7 @@ def shapes_of(field, family, count, deck=DECK, **params):
     """The mode set's shapes, computed directly from the candidate library."""
     from modesel.candidates.base import mode_shapes
     from modesel.candidates.context import field_context
-    from modesel.surrogate_sim.elastodyn import load_turbine
+    from modesel.turbine.elastodyn import load_turbine
     return mode_shapes(field, family, count, field_context(load_turbine(deck), field), x=X, **params)
 
 

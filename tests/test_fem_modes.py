@@ -29,7 +29,7 @@ from modesel.candidates.cantilever import characteristic_roots, clamped_free_roo
 from modesel.candidates.fem import axial_force
 from modesel.candidates.sine import tip_inertia_shaft_roots
 from modesel.errors import ModeselError
-from modesel.surrogate_sim.beam import BeamProperties
+from modesel.turbine.beam import BeamProperties
 
 FEM = get_family("fem")
 DEFAULTS = {p.name: p.default for p in FEM.parameters}
@@ -154,20 +154,19 @@ def test_fem_bad_input():
 # ----------------------------------------------------------------------------
 
 RATED = 12.1 * np.pi / 30.0
-DECK = "studies/data/nrel5mw/NREL5MW_ED_Onshore.dat"     # relative to the repository root
 
 
 @pytest.fixture(scope="module")
 def nrel():
-    elastodyn = pytest.importorskip("modesel.surrogate_sim.elastodyn")
+    elastodyn = pytest.importorskip("modesel.turbine.elastodyn")
     return elastodyn.load_turbine("nrel5mw")
 
 
 @pytest.fixture(scope="module")
 def pyb():
     pybmodes = pytest.importorskip("pybmodes.models")
-    from modesel.surrogate_sim.elastodyn import repository_root
-    deck = repository_root() / DECK
+    from modesel.turbine.builtin import builtin_elastodyn
+    deck = builtin_elastodyn("nrel5mw")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tower = pybmodes.Tower.from_elastodyn(deck)

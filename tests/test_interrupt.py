@@ -124,8 +124,8 @@ def test_interrupted_study_resumes_without_repeating_trials(tmp_path):
 
 # --------------------------------------------------------------------------- atomic writes
 
-STUDY_WRITERS = ["modesel/results.py", "modesel/report.py", "modesel/reference.py", "modesel/search.py",
-                 *sorted(str(p.relative_to(REPO)) for p in (REPO / "modesel" / "commands").glob("*.py"))]
+STUDY_WRITERS = sorted(str(p.relative_to(REPO)) for folder in ("study", "commands")
+                       for p in (REPO / "modesel" / folder).rglob("*.py"))
 
 
 @pytest.mark.parametrize("module", STUDY_WRITERS)

@@ -8,13 +8,13 @@ import pytest
 
 from modesel.errors import SimulationDiverged
 from modesel.modeset import FieldModes, ModeSet
-from modesel.surrogate_sim import kernel
-from modesel.surrogate_sim.bodies import FlexibleBody, Joint, RigidBody, Rotation, Shortening
-from modesel.surrogate_sim.elastodyn import load_turbine
-from modesel.surrogate_sim.equations import KaneEquations
-from modesel.surrogate_sim.integrate import integrate
-from modesel.surrogate_sim.models import build_turbine
-from modesel.surrogate_sim.system import Prescribed, System
+from modesel.multibody import kernel
+from modesel.multibody.bodies import FlexibleBody, Joint, RigidBody, Rotation, Shortening
+from modesel.turbine.elastodyn import load_turbine
+from modesel.multibody.kane import KaneEquations
+from modesel.multibody.integrate import integrate
+from modesel.model.template import build_turbine
+from modesel.multibody.system import Prescribed, System
 
 REL = 1e-10
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from modesel.errors import ModeselError
-from modesel.surrogate_sim.openfast_output import read_openfast_output
+from modesel.turbine.openfast_output import read_openfast_output
 
 DATA = Path(__file__).parent / "data" / "openfast_free_decay" / "tower_fa_ss_shaft"
 OUTB = DATA / "Main_Spar_ED.outb"

@@ -13,7 +13,7 @@ import textwrap
 
 import pytest
 
-from modesel.surrogate_sim.api import load_scene, simulate
+from modesel.simulation.api import load_scene, simulate
 
 
 def _pg_bin(name):

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from modesel.errors import ModeselError
-from modesel.reference import internal_reference, load_reference, unit_factor
+from modesel.study.reference import internal_reference, load_reference, unit_factor
 from test_search import FAKE_ENGINE, RATIO, FakeScene, fake_simulate, response
 
 DECAY = Path(__file__).parent / "data/openfast_free_decay/tower_fa_ss_shaft/Main_Spar_ED.outb"

@@ -22,8 +22,8 @@ import pytest
 from modesel.candidates.base import BENDING_FIELDS, Family, Parameter, register
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import FieldModes, ModeSet
-from modesel.search import Engine, Objective, SearchSpace, load_scenes, prepare_references, run_search
-from modesel.study import parse_study
+from modesel.study.search import Engine, Objective, SearchSpace, load_scenes, prepare_references, run_search
+from modesel.study.spec import parse_study
 
 # ------------------------------------------------------------------ fake families (unit-tip monomials)
 

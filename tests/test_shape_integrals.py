@@ -12,9 +12,9 @@ from modesel.candidates import families, mode_shapes
 from modesel.candidates.base import ShapeSet
 from modesel.candidates.context import field_context
 from modesel.cli import main
-from modesel.surrogate_sim.beam import BeamProperties
-from modesel.surrogate_sim.elastodyn import load_turbine
-from modesel.surrogate_sim.shape_integrals import evaluate_shapes, shape_integrals, skew
+from modesel.turbine.beam import BeamProperties
+from modesel.turbine.elastodyn import load_turbine
+from modesel.multibody.shape_integrals import evaluate_shapes, shape_integrals, skew
 
 G = 9.80665
 
@@ -340,7 +340,7 @@ def test_sampled_shapes_resampling_is_accurate(nrel):
 
 def nrel_folder():
     from pathlib import Path
-    return Path(__file__).resolve().parent.parent / "studies" / "data" / "nrel5mw"
+    return Path(__file__).resolve().parent.parent / "modesel" / "turbine" / "data" / "nrel5mw"
 
 
 def run_cli(capsys, *argv):

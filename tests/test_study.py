@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-import modesel.study as study_module
+import modesel.study.spec as study_module
 from modesel.errors import ModeselError
-from modesel.study import load_study, parse_study
+from modesel.study.spec import load_study, parse_study
 
 MINIMAL = """
 [[scene]]
@@ -25,7 +25,7 @@ families = ["clamped", "polynomial"]
 
 
 def example_text() -> str:
-    """The example of the modesel.study docstring."""
+    """The example of the modesel.study.spec docstring."""
     doc = study_module.__doc__
     block = doc.split("::\n", 1)[1]
     lines = block.splitlines()

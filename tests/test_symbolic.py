@@ -1,4 +1,4 @@
-"""Symbolic layer (modesel.surrogate_sim.symbolic) against the numeric engine
+"""Symbolic layer (modesel.multibody.symbolic) against the numeric engine
 (a second formulation) and the first paper's published numbers and
 equations (sections 4.3-4.5, eq. 37-45, Appendix E2).
 """
@@ -12,8 +12,8 @@ import pytest
 import sympy as sp
 
 from modesel.cli import main
-from modesel.surrogate_sim.api import build, load_scene
-from modesel.surrogate_sim.symbolic import derive_scene, write_latex, write_python
+from modesel.simulation.api import build, load_scene
+from modesel.multibody.symbolic import derive_scene, write_latex, write_python
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "studies" / "scenes"
@@ -239,7 +239,7 @@ def test_cli_derive_writes_python_and_latex(tmp_path, capsys):
 
 
 def test_cli_derive_rejects_large_models_and_bad_options(tmp_path, capsys):
-    deck = ROOT / "studies" / "data" / "nrel5mw" / "NREL5MW_ED_Onshore.dat"
+    deck = ROOT / "modesel" / "turbine" / "data" / "nrel5mw" / "NREL5MW_ED_Onshore.dat"
     assert main(["derive", str(deck), "--python", str(tmp_path / "x.py")]) == 2
     err = capsys.readouterr().err.strip()
     assert "small models only" in err and "\n" not in err

@@ -23,14 +23,14 @@ import pytest
 
 from modesel.errors import ModeselError
 from modesel.modeset import FieldModes, ModeSet
-from modesel.surrogate_sim.api import build, linearize_scene, load_scene, simulate
-from modesel.surrogate_sim.integrate import Integration
-from modesel.surrogate_sim.outputs import load_channels
-from modesel.surrogate_sim.scene import scene_from_dict
+from modesel.simulation.api import build, linearize_scene, load_scene, simulate
+from modesel.multibody.integrate import Integration
+from modesel.model.outputs import load_channels
+from modesel.simulation.scene import scene_from_dict
 
 HERE = os.path.dirname(__file__)
 SCENES = os.path.join(HERE, "..", "studies", "scenes")
-DATA = os.path.join(HERE, "..", "studies", "data", "nrel5mw")
+DATA = os.path.join(HERE, "..", "modesel", "turbine", "data", "nrel5mw")
 RPM = np.pi / 30.0
 ONE_MODE = {"tower_fa": {"family": "elastodyn", "count": 1}, "tower_ss": {"family": "elastodyn", "count": 1},
             "tower_torsion": {"family": "linear", "count": 1},
@@ -133,8 +133,8 @@ def test_stiffness_proportional_damping_equals_modal_with_one_mode():
 # ----------------------------------------------------------------------------- effects on/off
 
 def test_scene_without_aero_never_evaluates_aerodynamics(monkeypatch):
-    from modesel.surrogate_sim.aero import bem
-    from modesel.surrogate_sim.effects import aero
+    from modesel.aero import bem
+    from modesel.model.effects import aero
 
     def forbidden(*args, **kwargs):
         raise AssertionError("aerodynamics evaluated")
@@ -171,7 +171,7 @@ def test_effect_options_are_checked():
 
 
 def test_generator_law_matches_jonkman():
-    from modesel.surrogate_sim.effects.generator import (K_REGION2, RATED_TORQUE, TRANSITION,
+    from modesel.model.effects.generator import (K_REGION2, RATED_TORQUE, TRANSITION,
                                                          variable_speed_torque)
     w = 1000 * RPM                                   # region 2
     assert variable_speed_torque(w) == pytest.approx(0.0255764 * 1000**2, rel=1e-5)
@@ -187,7 +187,7 @@ def test_generator_law_matches_jonkman():
 def test_compiled_integration_equals_python_loads_path():
     """A scene whose only loads are linear (drivetrain) runs in the compiled
     integrator; the Python right-hand side with the same loads agrees."""
-    from modesel.surrogate_sim.integrate import integrate
+    from modesel.multibody.integrate import integrate
     b = build(scene("turbine_rated_gravity"))
     assert not b.acting and b.linear == [("DrTr", "DrTr", b.model.turbine.drivetrain_stiffness,
                                           b.model.turbine.drivetrain_damping)]
@@ -226,7 +226,7 @@ def rated():
 
 
 def test_compiled_kinematics_equal_numpy_reference(rated):
-    from modesel.surrogate_sim.effects.kinematics import PointSet
+    from modesel.multibody.kinematics import PointSet
     b, q, qd = rated
     q_all, qd_all = state_at(b, 0.3, q, qd)
     R, vec = b.frames(q_all, qd_all)
@@ -266,7 +266,7 @@ def test_station_bem_equals_bem_solver(rated):
 
 
 def test_tower_drag_equals_eq51(rated):
-    from modesel.surrogate_sim.effects.kinematics import PointSet
+    from modesel.multibody.kinematics import PointSet
     b, q, qd = rated
     q_all, qd_all = state_at(b, 0.0, q, qd)
     gen, nodes = b.loads(0.0, q_all, qd_all)
@@ -300,7 +300,7 @@ def read_ct(lam, pitch_deg=0.0):
 
 
 def test_rated_wind_thrust_matches_ct_table_and_rigid_bem(rated_run):
-    from modesel.surrogate_sim.aero import read_aerodyn, steady_rotor
+    from modesel.aero import read_aerodyn, steady_rotor
     out = rated_run.outputs
     last = out[out.Time >= out.Time.iloc[-1] - 20.0]
     thrust = last.RotThrust.mean() * 1e3
@@ -352,7 +352,7 @@ def test_rated_wind_tower_base_moment_balances(rated_run):
     """Mean TwrBsMyt = moment of the thrust (along the tilted shaft, at the apex) + weight moments of the RNA
     (at rest, plus its weight times the tower-top deflection) + tower drag
     moment: a static balance about the tower base."""
-    from modesel.surrogate_sim.aero import TowerDrag
+    from modesel.aero import TowerDrag
     out = rated_run.outputs
     last = out[out.Time >= out.Time.iloc[-1] - 20.0]
     t = scene("turbine_wind_11p4").turbine

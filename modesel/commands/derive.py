@@ -33,11 +33,11 @@ def register(sub):
 
 
 def run(args) -> int:
-    from modesel.surrogate_sim import linearize as lin
-    from modesel.surrogate_sim.api import load_scene
-    from modesel.surrogate_sim.symbolic import derive_scene
-    from modesel.surrogate_sim.symbolic.approximations import parse_orders
-    from modesel.surrogate_sim.symbolic.export import latex_source, python_source
+    from modesel.multibody import linearize as lin
+    from modesel.simulation.api import load_scene
+    from modesel.multibody.symbolic import derive_scene
+    from modesel.multibody.symbolic.approximations import parse_orders
+    from modesel.multibody.symbolic.export import latex_source, python_source
 
     orders = parse_orders(args.small_angle)          # bad input -> one-line error before any work
     for path in (args.python, args.latex):

@@ -34,7 +34,7 @@ def _parse_rpm(text):
 
 
 def run(args) -> int:
-    from modesel.surrogate_sim.api import linearize_scene, load_scene
+    from modesel.simulation.api import linearize_scene, load_scene
     scene = load_scene(args.scene)
     ms = load_modeset(args.modeset)
     speeds = _parse_rpm(args.rpm) if args.rpm else [None]

@@ -22,7 +22,7 @@ def register(subparsers):
 def run(args, engine=None) -> int:
     from pathlib import Path
 
-    from modesel.report import refresh
+    from modesel.study.report import refresh
     summary = refresh(args.dir, storage=args.storage, engine=engine, log=_say)
     for sentence in summary["sentences"]:
         print(sentence)

@@ -74,7 +74,7 @@ def _say(msg: str) -> None:
 def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
     """Write the results of the finished trials (ignoring a second Ctrl-C)
     and return the one-line `Interrupted` error to raise."""
-    from modesel.report import refresh
+    from modesel.study.report import refresh
     signal_name = "SIGTERM" if type(exc).__name__ == "Terminated" else "SIGINT"
     try:
         summary = refresh(out, engine=engine)
@@ -88,10 +88,10 @@ def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
 
 
 def run(args, engine=None) -> int:
-    from modesel.report import refresh
-    from modesel.results import write_run_info
-    from modesel.search import default_storage, mask_url, run_search
-    from modesel.study import load_study
+    from modesel.study.report import refresh
+    from modesel.study.results import write_run_info
+    from modesel.study.search import default_storage, mask_url, run_search
+    from modesel.study.spec import load_study
 
     study = load_study(args.study)
     out = prepare_out_dir(args.out)

@@ -18,8 +18,8 @@ from modesel.candidates import get_family
 from modesel.candidates.context import field_context
 from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS
-from modesel.surrogate_sim.elastodyn import load_turbine
-from modesel.surrogate_sim.shape_integrals import shape_integrals
+from modesel.turbine.elastodyn import load_turbine
+from modesel.multibody.shape_integrals import shape_integrals
 
 FULL_MATRICES_UP_TO = 6   # the text table prints full matrices up to this many modes
 JSON_MATRICES = ("gravity_top_mass", "gravity_self_weight", "centrifugal_per_omega2", "gravity_axial_per_g")

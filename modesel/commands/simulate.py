@@ -20,7 +20,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from modesel.surrogate_sim.api import load_scene, simulate
+    from modesel.simulation.api import load_scene, simulate
     scene = load_scene(args.scene)
     result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt)
     atomic_write_text(args.out, result.outputs.to_csv(index=False, float_format="%.9g"))

@@ -34,8 +34,8 @@ def register(subparsers):
 
 
 def run(args, engine=None) -> int:
-    from modesel.search import mask_url, run_search
-    from modesel.study import load_study
+    from modesel.study.search import mask_url, run_search
+    from modesel.study.spec import load_study
 
     study = load_study(args.study)
     cache = Path(args.cache) if args.cache else study.path.parent / ".modesel" / study.name

@@ -84,7 +84,7 @@ def export_modeset(modeset, turbine_deck, *, elastodyn_dir=None, json_path=None,
     """
     from modesel.export.elastodyn_writer import export_elastodyn
     from modesel.export.modeset_json import write_modeset_json
-    from modesel.surrogate_sim.elastodyn import load_turbine
+    from modesel.turbine.elastodyn import load_turbine
 
     if elastodyn_dir is None and json_path is None:
         raise ModeselError("nothing to export: give an ElastoDyn output folder and/or a JSON file")

@@ -17,7 +17,7 @@ Fields absent from the mode set keep the deck's polynomials and DOF flags.
 
 Raw deck access. The deck is read with openfast-io after being normalised to
 the layout openfast-io 5.0 reads, by the normaliser of
-`modesel.surrogate_sim.elastodyn` (`_Deck`, `_read`: older decks lack
+`modesel.turbine.elastodyn` (`_Deck`, `_read`: older decks lack
 `PitchDOF`, pitch-bearing inertias and yaw friction, have a `Gravity` line or
 a `PitchAxis` blade column). This module is the one place that needs the
 raw openfast-io dictionaries (to rewrite files); it reuses that normaliser
@@ -48,7 +48,7 @@ from modesel.errors import ModeselError
 from modesel.export import stations, write_text
 from modesel.export.polyfit import PolynomialFit, fit_mode_polynomial
 from modesel.modeset import FIELDS
-from modesel.surrogate_sim.elastodyn import _Deck, _has_label, _read, _referenced
+from modesel.turbine.elastodyn import _Deck, _has_label, _read, _referenced
 
 # field -> ElastoDyn mode slots: (file branch, coefficient key, DOF flag, modal stiffness tuner)
 ELASTODYN_MODES = {

@@ -10,7 +10,7 @@ rather than ElastoDyn polynomials. The file holds
   root) and per mode `phi` (tip value 1), `dphi` = dphi/dx, `ddphi` =
   d2phi/dx2 (divide by L and L^2 for slopes [1/m] and curvatures [1/m^2]);
 - `fields.<field>.integrals`: every attribute of
-  `modesel.surrogate_sim.shape_integrals.ShapeIntegrals` (first paper, App.
+  `modesel.multibody.shape_integrals.ShapeIntegrals` (first paper, App.
   A-C: mass, stiffness, damping, geometric stiffness, spin softening, tip
   deflection and slope, uncoupled frequencies [Hz], SID terms), in SI units
   per unit modal coordinate = tip value of the raw shape. The raw basis is
@@ -29,7 +29,7 @@ import json
 import numpy as np
 
 from modesel.export import stations, write_text
-from modesel.surrogate_sim.shape_integrals import ILL_CONDITIONED, shape_integrals
+from modesel.multibody.shape_integrals import ILL_CONDITIONED, shape_integrals
 
 FORMAT = "modesel-modeset-export/1"
 

@@ -3,7 +3,7 @@ an energy balance over a simulation, engine frequencies, and the check that
 the integrator's choice follows the stiffness it detects.
 
 Every hard case checks that the run finishes with finite results, that the
-energy is conserved when it should be (modesel.surrogate_sim.energy: no
+energy is conserved when it should be (modesel.multibody.energy: no
 damping, no external force, no prescribed motion), that the engine's
 frequencies agree with a finer reference, and that the explicit (DOP853) /
 implicit (Radau) choice matches the stiffness ratio (integrate.choose_method).
@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from modesel.modeset import FieldModes, ModeSet
-from modesel.surrogate_sim import api
-from modesel.surrogate_sim import linearize as lin
-from modesel.surrogate_sim.energy import total_energy
+from modesel.simulation import api
+from modesel.multibody import linearize as lin
+from modesel.multibody.energy import total_energy
 
 REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "studies" / "scenes"

@@ -26,10 +26,10 @@ from hardcase_tools import assert_method_justified, conservative, frequencies, m
 from modesel.candidates.base import mode_shapes
 from modesel.candidates.context import field_context
 from modesel.errors import PhysicallyUnstable, SimulationDiverged
-from modesel.surrogate_sim import api
-from modesel.surrogate_sim import linearize as lin
-from modesel.surrogate_sim.bodies import FlexibleBody
-from modesel.surrogate_sim.shape_integrals import shape_integrals
+from modesel.simulation import api
+from modesel.multibody import linearize as lin
+from modesel.multibody.bodies import FlexibleBody
+from modesel.multibody.shape_integrals import shape_integrals
 
 BASIS = ("relaxed_root", 6)        # free tip curvature: m_crit converged to 1e-7 at 6 modes
 RICH = ("fem", 12)

@@ -18,8 +18,8 @@ import pytest
 from hardcase_tools import modes, scene
 from modesel.cli import main
 from modesel.errors import PhysicallyUnstable, SimulationDiverged
-from modesel.surrogate_sim import api
-from modesel.surrogate_sim.effects.base import Effect
+from modesel.simulation import api
+from modesel.model.effects.base import Effect
 
 #: nacelle mass between the buckling masses of 1-mode and 2-mode bases
 #: (clamped: 1.61e7 and 1.20e7 kg; polynomial: 1.76e7 and 1.27e7 kg)

@@ -18,7 +18,7 @@ import pytest
 import scipy.linalg
 
 from hardcase_tools import assert_method_justified, modes, scene, simulate
-from modesel.surrogate_sim.api import linearize_scene
+from modesel.simulation.api import linearize_scene
 
 GEARBOX_INERTIA = 1.0e4      # kg m^2, LSS side
 

@@ -16,8 +16,8 @@ import pytest
 from hardcase_tools import assert_method_justified, conservative, frequencies, modes, scene, simulate
 from modesel.candidates.base import mode_shapes
 from modesel.candidates.context import field_context
-from modesel.surrogate_sim.elastodyn import load_turbine
-from modesel.surrogate_sim.shape_integrals import (ILL_CONDITIONED, conditioned_shapes, quadrature,
+from modesel.turbine.elastodyn import load_turbine
+from modesel.multibody.shape_integrals import (ILL_CONDITIONED, conditioned_shapes, quadrature,
                                                    shape_integrals)
 
 

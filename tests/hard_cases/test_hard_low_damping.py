@@ -14,7 +14,7 @@ import pytest
 import scipy.integrate
 
 from hardcase_tools import assert_method_justified, energy, scene, simulate
-from modesel.surrogate_sim.api import linearize_scene
+from modesel.simulation.api import linearize_scene
 
 SCALE = 1e-3
 

@@ -1,0 +1,366 @@
+"""Turbine template: builds the body tree of a horizontal-axis wind turbine
+(first paper Fig. 4 and 7; second paper section 2, eq. 11-31) from a
+`Turbine`, a `ModeSet` and the DOFs a scene frees.
+
+Bodies (parents first): [platform] -> tower (flexible: fore-aft, side-side,
+torsion modes; eq. 2-10, 37-39) -> nacelle (carried by the tower-top
+elastic translation, axial shortening and rotation, eq. 11-16) -> hub
+(shaft tilt, overhang, rotor azimuth GeAz + DrTr, eq. 17, 21-25) ->
+blades 1..3 (flexible: flap, edge; precone and collective pitch, eq. 26-36,
+40-41), the generator (azimuth GBRatio * GeAz about the shaft, eq. 18, 20)
+and, with the two-spring drivetrain, the gearbox.
+
+Drivetrain (the scene's `drivetrain` effect chooses):
+- "elastodyn": ElastoDyn's single torsional spring/damper on DrTr between
+  the rotor (angle GeAz + DrTr) and the generator (GeAz, LSS side).
+- "two_spring": the second paper's low- and high-speed shafts (eq. 17-20,
+  19, 47): the rotor (GeAz + DrTr), a rigid gearbox whose LSS-side angle is
+  theta_1 = GeAz + HSSTw (theta_2 = N_g theta_1 on its HSS side) and the
+  generator (N_g GeAz). The LSS twists by DrTr - HSSTw, the HSS by
+  N_g HSSTw. The extra DOF is HSSTw; it needs a gearbox inertia (the paper's
+  massless gearbox makes theta_1 an algebraic coordinate, and its count of
+  13 DOFs lists theta_1 and theta_2 separately although a rigid gearbox
+  ties them; here 1 mode per field gives 11 DOFs with "elastodyn" and 12
+  with "two_spring": TFA1 TSS1 TTor1 B{1,2,3}F1 B{1,2,3}E1 GeAz DrTr [HSSTw]).
+
+Blade flap/edge shapes displace along the x/y axes of the *pitched* blade
+frame (no structural-twist coupling of flap and edge; the deck's twist is
+not applied to the shape directions).
+
+Gyroscopic and Coriolis couplings (rotor speed with tower-top rotation,
+blade vibration in the rotating frame) are part of the engine's inertial
+terms and always present.
+
+Coordinate names: tower TFA1.., TSS1.., TTor1..; blades B{b}F1.., B{b}E1..;
+rigid: GeAz (generator azimuth, LSS side), DrTr (drivetrain twist), HSSTw
+(HSS twist referred to the LSS), Yaw, PtfmSurge, PtfmPitch. Output channels
+are Q_<name> like OpenFAST. A field absent from the ModeSet has no DOF
+(rigid in that direction), so a scene without blade DOFs allocates no
+blade states.
+
+Damping ratios: the deck's; tower torsion (no ElastoDyn input) takes the
+first fore-aft ratio.
+
+Reaction coordinates (`reactions=True`): the tower base and each blade root
+get a rotation coordinate that is always fixed at 0 (TwrBsRyt about the
+ground y axis at the tower base; RootRyc<b> about the coned-blade y_c axis
+at blade b's root). Fixed, they change nothing in the motion and cost
+nothing in the free equations; their rows of the full equations give the
+reaction moments (TwrBsMyt, RootMyc<b>, see outputs.py).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from modesel.candidates.base import mode_shapes, shape_breakpoints
+from modesel.modeset import ModeSet
+from modesel.multibody.bodies import Joint, RigidBody, Rotation
+from modesel.multibody.kane import elementary_rotation
+from modesel.model.flexible_beam import (FIELD_DIRECTION, FieldShapes, beam_quadrature,
+                                                 build_flexible_body, evaluate_field, tip_joint)
+from modesel.multibody.system import System
+
+FIELD_PREFIX = {"tower_fa": "TFA", "tower_ss": "TSS", "tower_torsion": "TTor",
+                "blade_flap": "F", "blade_edge": "E"}
+RIGID_DOFS = ("GeAz", "DrTr", "HSSTw", "Yaw", "PtfmSurge", "PtfmPitch")
+DRIVETRAINS = ("elastodyn", "two_spring")
+TOWER_BASE_REACTION = "TwrBsRyt"
+FINE_POINTS = 801            # grid for the axial-shortening integrals
+#: quadrature nodes per mode of the richest field on a beam (at least `min_nodes`):
+#: mode k has about k half-waves, and Gauss quadrature of its curvature (or
+#: torsion-rate) squared needs several points per half-wave, piecewise shapes
+#: (`fem` elements) more. 40 nodes with 20 torsion modes put the 2nd-4th engine
+#: frequencies 3.7 % below the converged ones; 12 per mode: < 0.1 %.
+NODES_PER_MODE = 12
+#: the engine works in a mass-orthogonal basis above this raw condition number
+#: (beam mass only; the tower-top inertia raises it further): `linear` torsion
+#: with 6 modes (8.8e7 raw, 1e10 with the RNA) put the 2nd frequency 1.2e-5 below
+#: the 9-mode one, a Ritz-bound violation; 1e4 keeps round-off below ~1e-11
+ENGINE_ILL_CONDITIONED = 1e4
+
+
+def root_reaction(blade: int) -> str:
+    """Name of blade `blade`'s root reaction coordinate."""
+    return f"RootRyc{blade}"
+
+
+def field_dofs(field_name: str, count: int, blade: int | None = None) -> tuple:
+    p = FIELD_PREFIX[field_name]
+    if blade is not None:
+        return tuple(f"B{blade}{p}{i + 1}" for i in range(count))
+    return tuple(f"{p}{i + 1}" for i in range(count))
+
+
+@dataclass
+class TurbineModel:
+    """The System plus what effects and outputs need to know.
+
+    field_dofs: field -> DOFs (blades: one tuple per blade). tips: body
+    name -> tip dict of `build_flexible_body`. shapes: field -> callable
+    x -> ShapeSet (x = s / L). weights: flexible body name -> (N,)
+    quadrature weight of each node [m] (0 for a lumped tip mass), so that a
+    load per unit length f(s) becomes the node force f(s_k) w_k. span:
+    flexible body name -> (N,) node distance from the beam root [m].
+    reactions: {output name: reaction coordinate}.
+    """
+
+    system: System
+    turbine: object
+    modeset: ModeSet
+    field_dofs: dict = field(default_factory=dict)
+    tips: dict = field(default_factory=dict)
+    shapes: dict = field(default_factory=dict)
+    weights: dict = field(default_factory=dict)
+    span: dict = field(default_factory=dict)
+    pitch: float = 0.0
+    drivetrain: str = "elastodyn"
+    reactions: dict = field(default_factory=dict)
+    blade_fields: tuple = ()
+
+    def station_shapes(self, body: str, span: np.ndarray):
+        """Undeformed positions s0 (M,3), shapes Phi (M,3,ne) and axial
+        shortening matrices S (M,ne,ne) of extra points at `span` [m from the
+        beam root] of a flexible body, in its body frame: the same fields
+        as its nodes, evaluated at other stations (e.g. the AeroDyn nodes).
+        S is interpolated linearly between the body's nodes, the root (0)
+        and the tip (the tip shortening matrix)."""
+        b = self.system.body(body)
+        t = self.turbine
+        beam = t.blade if body.startswith("blade") else t.tower
+        L = beam.length
+        span = np.clip(np.asarray(span, float), 0.0, L)
+        s0 = np.zeros((len(span), 3))
+        s0[:, 2] = span + (0.0 if body.startswith("blade") else beam.root_offset)
+        ne = b.n_elastic
+        Phi = np.zeros((len(span), 3, ne))
+        col = 0
+        for fld in (self.blade_fields if body.startswith("blade") else
+                    [f for f in ("tower_fa", "tower_ss", "tower_torsion") if f in self.field_dofs]):
+            k = self.modeset[fld].count
+            if fld != "tower_torsion":
+                phi = self.shapes[fld](span / L).phi                 # (k, M)
+                Phi[:, :, col:col + k] = FIELD_DIRECTION[fld][None, :, None] * phi.T[:, None, :]
+            col += k
+        S = None
+        if b.shortening is not None and ne:
+            tip = self.tips[body]["shortening"][1]
+            n_struct = len(self.span[body])
+            grid = np.concatenate([[0.0], self.span[body][:n_struct], [L]])
+            order = np.argsort(grid, kind="stable")
+            vals = np.concatenate([np.zeros((1, ne, ne)), b.shortening[:n_struct], tip[None]])[order]
+            grid = grid[order]
+            S = np.empty((len(span), ne, ne))
+            for i in range(ne):
+                for j in range(ne):
+                    S[:, i, j] = np.interp(span, grid, vals[:, i, j])
+        return s0, Phi, S
+
+
+def _shapes_for(turbine, fld, modes, rotor_speed):
+    """Callable x -> ShapeSet of `fld`'s modes. A family whose raw mass
+    matrix is ill-conditioned (condition number > ENGINE_ILL_CONDITIONED,
+    e.g. 10 `polynomial` modes: 6e14) is used in its mass-orthogonal basis
+    with unit tip values (`shape_integrals.conditioned_shapes`): same space of
+    shapes, so the same physics, without the round-off that would otherwise
+    swamp the equations (first shape unchanged; coordinates still read as tip
+    deflections)."""
+    from modesel.candidates.context import field_context
+    from modesel.multibody.shape_integrals import conditioned_shapes
+    ctx = field_context(turbine, fld, rotor_speed=rotor_speed)
+
+    def raw(x):
+        return mode_shapes(fld, modes.family, modes.count, ctx, x=x, **modes.params)
+
+    beam = turbine.blade if fld.startswith("blade") else turbine.tower
+    return conditioned_shapes(beam, raw, fld, threshold=ENGINE_ILL_CONDITIONED)[0]
+
+
+def _quadrature_beam(turbine, beam, modeset: ModeSet, fields, rotor_speed: float):
+    """`beam` with extra stations at the breakpoints of its fields' shapes
+    (`Family.breakpoints`: element boundaries of `fem` shapes), properties
+    interpolated linearly there (the same piecewise-linear functions, so the
+    same beam): every quadrature interval then lies inside one element, where
+    the shapes are polynomials that Gauss points integrate (almost) exactly."""
+    from modesel.candidates.context import field_context
+    extra = []
+    for fld in fields:
+        if fld in modeset:
+            fm = modeset[fld]
+            x = shape_breakpoints(fld, fm.family, fm.count,
+                                  field_context(turbine, fld, rotor_speed=rotor_speed), **fm.params)
+            if x is not None:
+                extra.append(beam.span[0] + np.asarray(x, float) * beam.length)
+    if not extra:
+        return beam
+    span = np.asarray(beam.span, float)
+    new = np.union1d(span, np.concatenate(extra))
+    new = new[np.concatenate([[True], np.diff(new) > 1e-9 * beam.length])]
+    props = {k: np.interp(new, span, np.asarray(getattr(beam, k), float))
+             for k in ("mass", "ei_1", "ei_2", "gj", "polar_inertia", "twist")}
+    return replace(beam, span=new, **props)
+
+
+def _nodes_for(modeset: ModeSet, fields, min_nodes: int) -> int:
+    """Quadrature nodes of a beam carrying `fields` (NODES_PER_MODE)."""
+    counts = [modeset[f].count for f in fields if f in modeset]
+    return max(int(min_nodes), NODES_PER_MODE * max(counts, default=0))
+
+
+def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=None,
+                  gravity: bool = True, geometric_stiffening: bool = True,
+                  rotor_speed_for_shapes: float = 0.0, pitch: float = 0.0,
+                  include_blades: bool = True, min_nodes: int = 40, drivetrain: str = "elastodyn",
+                  gearbox_inertia: float = 0.0, reactions: bool = False) -> TurbineModel:
+    """Body tree of `turbine` with the elastic fields of `modeset`.
+
+    free: rigid DOFs integrated in time (subset of RIGID_DOFS); elastic DOFs
+    of every field in `modeset` are free. fixed: {name: value}; prescribed:
+    {name: Prescribed}. pitch [rad] collective (fixed). drivetrain:
+    "elastodyn" or "two_spring" (then HSSTw is a DOF and the gearbox has
+    `gearbox_inertia` [kg m^2, LSS side] about the shaft). reactions: add
+    the fixed reaction coordinates (module doc). min_nodes: quadrature nodes
+    per beam, raised to NODES_PER_MODE per mode for many modes. Units SI.
+    """
+    fixed = dict(fixed or {})
+    prescribed = dict(prescribed or {})
+    t = turbine
+    bodies = []
+    fdofs = {}
+    tips = {}
+    shapes = {}
+    weights = {}
+    spans = {}
+
+    # ---- platform (only when a platform DOF is used)
+    uses_platform = any(d in ("PtfmSurge", "PtfmPitch") for d in list(free) + list(fixed) + list(prescribed))
+    tower_parent = None
+    tower_offset = np.array([0.0, 0.0, t.tower_base_height])
+    if uses_platform:
+        pj = Joint(None, np.array([0.0, 0.0, t.platform_ref_z]), translation={"PtfmSurge": np.array([1.0, 0, 0])},
+                   rotations=[Rotation(1, {"PtfmPitch": 1.0})])
+        cm = np.array(t.platform_cm, float) - np.array([0.0, 0.0, t.platform_ref_z])
+        bodies.append(RigidBody("platform", pj, t.platform_mass, cm, np.diag(t.platform_inertia)))
+        tower_parent = "platform"
+        tower_offset = np.array([0.0, 0.0, t.tower_base_height - t.platform_ref_z])
+
+    # ---- tower
+    reaction_names = {}
+    tower_rot = []
+    if reactions:
+        tower_rot = [Rotation(1, {TOWER_BASE_REACTION: 1.0})]
+        reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
+    tower_field_names = ("tower_fa", "tower_ss", "tower_torsion")
+    tower_nodes = _nodes_for(modeset, tower_field_names, min_nodes)
+    tower_beam = _quadrature_beam(t, t.tower, modeset, tower_field_names, 0.0)
+    s_nodes, w_nodes = beam_quadrature(tower_beam.span, tower_nodes)
+    fine_s = np.linspace(0, t.tower.length, FINE_POINTS)
+    tower_fields = []
+    for fld in ("tower_fa", "tower_ss", "tower_torsion"):
+        if fld in modeset:
+            modes = modeset[fld]
+            dofs = field_dofs(fld, modes.count)
+            fdofs[fld] = dofs
+            fn = _shapes_for(t, fld, modes, 0.0)
+            ratios = t.tower.damping_ratio.get(fld) or (
+                tuple(t.tower.damping_ratio.get("tower_fa", ()))[:1] if fld == "tower_torsion" else ())
+            tower_fields.append(evaluate_field(fld, dofs, fn, s_nodes, t.tower.length, fine_s, ratios,
+                                               getattr(t.tower, "stiffness_tuners", {}).get(fld, ())))
+            shapes[fld] = fn
+    tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
+                                      tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes)
+    bodies.append(tower)
+    tips["tower"] = ttip
+    weights["tower"] = w_nodes
+    spans["tower"] = s_nodes
+
+    # ---- nacelle (yaw bearing + nacelle), ElastoDyn: only the yaw inertia
+    yaw = [Rotation(2, {"Yaw": 1.0})]
+    nj = tip_joint("tower", ttip, extra_rotations=yaw)
+    ncm = np.array(t.nacelle_cm, float)
+    mn = t.nacelle_mass + t.yaw_bearing_mass
+    cm = ncm * t.nacelle_mass / mn if mn > 0 else np.zeros(3)
+    Izz = max(t.nacelle_yaw_inertia - t.nacelle_mass * (ncm[0] ** 2 + ncm[1] ** 2), 0.0)
+    bodies.append(RigidBody("nacelle", nj, mn, cm, np.diag([0.0, 0.0, Izz])))
+
+    # ---- shaft geometry: x_s along the (tilted) shaft, downwind (eq. 17)
+    tilt = elementary_rotation(1, -t.shaft_tilt)
+    apex = np.array([0.0, 0.0, t.twr2shft]) + t.overhang * tilt[:, 0]
+    rotor_angle = {"GeAz": 1.0, "DrTr": 1.0}
+    hj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, rotor_angle)])
+    bodies.append(RigidBody("hub", hj, t.hub_mass, np.array([t.hub_cm, 0.0, 0.0]),
+                            np.diag([t.hub_inertia, 0.0, 0.0])))
+    gj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, {"GeAz": t.gearbox_ratio})])
+    bodies.append(RigidBody("generator", gj, 0.0, np.zeros(3), np.diag([t.generator_inertia, 0.0, 0.0])))
+    if drivetrain == "two_spring":
+        # rigid gearbox, LSS-side angle theta_1 = GeAz + HSSTw (eq. 19-20)
+        gbj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, {"GeAz": 1.0, "HSSTw": 1.0})])
+        bodies.append(RigidBody("gearbox", gbj, 0.0, np.zeros(3), np.diag([gearbox_inertia, 0.0, 0.0])))
+    elif drivetrain != "elastodyn":
+        raise ValueError(drivetrain)
+
+    # ---- blades (eq. 26-29: azimuth, precone, pitch; body origin at the root)
+    blade_fields = ()
+    if include_blades:
+        blade_fields_spec = [(f, modeset[f]) for f in ("blade_flap", "blade_edge") if f in modeset]
+        blade_fields = tuple(f for f, _ in blade_fields_spec)
+        L = t.blade.length
+        blade_nodes = _nodes_for(modeset, ("blade_flap", "blade_edge"), min_nodes)
+        blade_beam = _quadrature_beam(t, t.blade, modeset, ("blade_flap", "blade_edge"),
+                                      rotor_speed_for_shapes)
+        sb_nodes, wb_nodes = beam_quadrature(blade_beam.span, blade_nodes)
+        fine_b = np.linspace(0, L, FINE_POINTS)
+        evaluated = {}
+        for fld, modes in blade_fields_spec:
+            fn = _shapes_for(t, fld, modes, rotor_speed_for_shapes)
+            evaluated[fld] = (fn(sb_nodes / L), fn(np.array([1.0])), fn(fine_b / L))
+            shapes[fld] = fn
+        root = t.blade.root_offset
+        for b in range(1, t.num_blades + 1):
+            psi = 2 * np.pi * (b - 1) / t.num_blades
+            coned = elementary_rotation(0, psi) @ elementary_rotation(1, t.precone[b - 1])
+            offset = coned @ np.array([0.0, 0.0, root])
+            if reactions:
+                bj = Joint("hub", offset, coned, rotations=[Rotation(1, {root_reaction(b): 1.0}),
+                                                            Rotation(2, {}, -pitch)])
+                reaction_names[f"RootMyc{b}"] = root_reaction(b)
+            else:
+                bj = Joint("hub", offset, coned @ elementary_rotation(2, -pitch))
+            flds = []
+            for fld, modes in blade_fields_spec:
+                dofs = field_dofs(fld, modes.count, blade=b)
+                fdofs.setdefault(fld, []).append(dofs)
+                at_nodes, at_tip, fine = evaluated[fld]
+                flds.append(FieldShapes(fld, dofs, at_nodes.phi, at_nodes.dphi / L, at_nodes.ddphi / L**2,
+                                        at_tip.phi[:, 0], at_tip.dphi[:, 0] / L, fine.dphi / L,
+                                        tuple(t.blade.damping_ratio.get(fld, ())),
+                                        tuple(getattr(t.blade, "stiffness_tuners", {}).get(fld, ()))))
+            body, btip = build_flexible_body(f"blade{b}", bj, blade_beam, flds,
+                                             shortening=geometric_stiffening, min_nodes=blade_nodes)
+            body.nodes = body.nodes - np.array([0.0, 0.0, root])       # origin at the root
+            btip["length"] -= root
+            w_body = wb_nodes
+            if t.tip_mass[b - 1] > 0:
+                body.nodes = np.vstack([body.nodes, [0.0, 0.0, btip["length"]]])
+                body.node_mass = np.append(body.node_mass, t.tip_mass[b - 1])
+                tipPhi = np.zeros((1, 3, body.n_elastic))
+                for i, d in enumerate(body.dofs):
+                    tipPhi[0, :, i] = btip["displacement"].get(d, np.zeros(3))
+                body.shapes = np.concatenate([body.shapes, tipPhi], axis=0)
+                if body.shortening is not None:
+                    body.shortening = np.concatenate([body.shortening, btip["shortening"][1][None]], axis=0)
+                w_body = np.append(wb_nodes, 0.0)
+            bodies.append(body)
+            tips[f"blade{b}"] = btip
+            weights[f"blade{b}"] = w_body
+            spans[f"blade{b}"] = sb_nodes
+
+    elastic = [d for f in ("tower_fa", "tower_ss", "tower_torsion") for d in fdofs.get(f, ())]
+    for f in ("blade_flap", "blade_edge"):
+        for dofs in fdofs.get(f, []):
+            elastic += list(dofs)
+    free_all = elastic + [d for d in RIGID_DOFS if d in free]
+    system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
+    return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
+                        reaction_names, blade_fields)

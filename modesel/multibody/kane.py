@@ -1,0 +1,363 @@
+"""Kane's method with velocity-transformation matrices (first paper section 2,
+eq. 4-22, Appendix A and D1): the method object that turns a `System` into
+
+    M(q) qdd = F(q, qd, t)
+
+in minimal coordinates, for any number of bodies and elastic modes.
+
+The kinematics are recursive over the tree (parents first): for each body
+the position r, rotation R, velocity v and angular velocity w of its origin,
+their Jacobians J_v = dv/dqd and J_w = dw/dqd (the partial velocities,
+eq. 8 and 20) and the "bias" accelerations a_b, alpha_b (accelerations with
+qdd = 0). Then each body adds J^T M_body J to M and J^T (f - M_body*bias)
+to F (eq. 7, 9, 18, 19). Rigid bodies use eq. 6; flexible bodies use the
+Wallrapp equations (eq. 11, Appendix A) with the shape integrals summed over
+the body's quadrature nodes at the current deformation, including the
+second-order axial shortening (Appendix D4), which yields the geometric
+stiffening of Appendix C (tower top mass and self weight, blade centrifugal
+and gravity stiffening) from the kinematics themselves.
+
+Cost is O(bodies * n^2) per evaluation, with no symbolic expression growth,
+so a 40-DOF model is as easy as a 3-DOF one.
+
+Two implementations of the same equations: this module's numpy code is the
+readable reference (`evaluate_full_reference`, `evaluate_reference`); the
+numba kernel of `kernel.py` (packed once, on first use) serves `evaluate`,
+`evaluate_full` and `compiled_rhs`, and tests hold the two equal to 1e-10.
+The system must not be modified after the first evaluation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from modesel.multibody import kernel
+from modesel.multibody.bodies import FlexibleBody
+from modesel.multibody.packing import Packed, pack
+from modesel.multibody.system import System
+
+
+def skew(v):
+    """Skew-symmetric matrix [v~] with [v~] w = v x w."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def cross(a, b):
+    """Cross product of 3-vectors or (N,3) arrays (faster than np.cross)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def elementary_rotation(axis: int, angle: float) -> np.ndarray:
+    """Rotation matrix (body -> parent) about x (0), y (1) or z (2)."""
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == 0:
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == 1:
+        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+_E = np.eye(3)
+
+
+@dataclass
+class BodyState:
+    """Kinematics of one body frame at the current state (inertial axes)."""
+
+    r: np.ndarray
+    R: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    Jv: np.ndarray
+    Jw: np.ndarray
+    a_bias: np.ndarray
+    alpha_bias: np.ndarray
+
+
+class _CompiledJoint:
+    def __init__(self, joint, index, n):
+        self.parent = joint.parent
+        self.offset = np.asarray(joint.offset, float)
+        self.R0 = np.asarray(joint.pre_rotation, float)
+        self.A = np.zeros((3, n))
+        for d, vec in joint.translation.items():
+            self.A[:, index[d]] += np.asarray(vec, float)
+        self.has_A = bool(np.any(self.A))
+        self.rotations = []
+        for rot in joint.rotations:
+            c = np.zeros(n)
+            for d, k in rot.coeffs.items():
+                c[index[d]] += k
+            self.rotations.append((rot.axis, c, float(rot.offset)))
+        self.short = None
+        if joint.shortening is not None:
+            sh = joint.shortening
+            idx = np.array([index[d] for d in sh.dofs], dtype=int)
+            self.short = (np.asarray(sh.axis, float), idx, np.asarray(sh.matrix, float))
+
+
+class _CompiledFlex:
+    def __init__(self, body: FlexibleBody, index):
+        self.idx = np.array([index[d] for d in body.dofs], dtype=int)
+        ne = len(self.idx)
+        N = len(body.node_mass)
+        self.s0 = np.asarray(body.nodes, float)
+        self.m = np.asarray(body.node_mass, float)
+        self.axis = np.asarray(body.axis, float)
+        self.Phi = np.zeros((N, 3, ne)) if body.shapes is None else np.asarray(body.shapes, float)
+        self.S = None if (body.shortening is None or ne == 0) else np.asarray(body.shortening, float)
+        self.eta = None if body.torsion is None else np.asarray(body.torsion, float)
+        self.Jp = None if body.node_polar_inertia is None else np.asarray(body.node_polar_inertia, float)
+        self.K = np.zeros((ne, ne)) if body.stiffness is None else np.asarray(body.stiffness, float)
+        self.D = np.zeros((ne, ne)) if body.damping is None else np.asarray(body.damping, float)
+        self.mass = float(self.m.sum())
+
+
+class KaneEquations:
+    """Produces M(q) and F(q, qd, t) of a `System` (first paper eq. 22).
+
+    `evaluate(q, qd, t)` takes the *free* coordinates and returns (M, F)
+    restricted to them; `evaluate_full` works on all coordinates.
+    External loads: `node_forces` {body name: (N, 3) inertial-frame forces
+    on the flexible body's nodes [N]} and `generalized` (n_all,) forces [N or N m]
+    added to the right-hand side (eq. 9-10, 19).
+    """
+
+    def __init__(self, system: System):
+        self.system = system
+        self.names = system.coordinate_names()
+        self.index = {n: i for i, n in enumerate(self.names)}
+        self.n_all = len(self.names)
+        self.free_idx = np.array([self.index[n] for n in system.free], dtype=int)
+        self.presc_idx = np.array([self.index[n] for n in system.prescribed], dtype=int)
+        self.presc = list(system.prescribed.values())
+        self.fixed_values = np.zeros(self.n_all)
+        for n, v in system.fixed.items():
+            self.fixed_values[self.index[n]] = v
+        self.gravity = np.array([0.0, 0.0, -system.gravity])
+        self.bodies = []
+        for b in system.bodies:
+            joint = _CompiledJoint(b.joint, self.index, self.n_all)
+            flex = _CompiledFlex(b, self.index) if isinstance(b, FlexibleBody) else None
+            self.bodies.append((b, joint, flex))
+        self.body_index = {b.name: i for i, b in enumerate(system.bodies)}
+
+    # ------------------------------------------------------------------ state
+    def full_state(self, q, qd, t):
+        """All coordinates, rates and prescribed accelerations at time t."""
+        q_all = self.fixed_values.copy()
+        qd_all = np.zeros(self.n_all)
+        qdd_presc = np.zeros(self.n_all)
+        q_all[self.free_idx] = q
+        qd_all[self.free_idx] = qd
+        for i, p in zip(self.presc_idx, self.presc):
+            q_all[i], qd_all[i], qdd_presc[i] = p(t)
+        return q_all, qd_all, qdd_presc
+
+    # ------------------------------------------------------------- kinematics
+    def kinematics(self, q, qd):
+        """Recursive kinematics of every body frame (all coordinates)."""
+        n = self.n_all
+        states = []
+        for b, j, _ in self.bodies:
+            if j.parent is None:
+                Rp = np.eye(3); rp = np.zeros(3); vp = np.zeros(3); wp = np.zeros(3)
+                Jvp = np.zeros((3, n)); Jwp = np.zeros((3, n)); ap = np.zeros(3); alp = np.zeros(3)
+            else:
+                ps = states[self.body_index[j.parent]]
+                Rp, rp, vp, wp, Jvp, Jwp, ap, alp = ps.R, ps.r, ps.v, ps.w, ps.Jv, ps.Jw, ps.a_bias, ps.alpha_bias
+            P = Rp @ j.R0
+            # rotations: omega_rel = sum_k u_k thetadot_k (in the P frame)
+            Q = np.eye(3)
+            w_rel = np.zeros(3)
+            al_rel = np.zeros(3)
+            Jw_rel = np.zeros((3, n))
+            for axis, c, off in j.rotations:
+                th = c @ q + off
+                thd = c @ qd
+                u = Q[:, axis]
+                al_rel += cross(w_rel, u) * thd
+                w_rel = w_rel + u * thd
+                Jw_rel += np.outer(u, c)
+                Q = Q @ elementary_rotation(axis, th)
+            # translation in the parent frame
+            rho_loc = j.offset.copy()
+            Jrho = j.A.copy() if j.has_A else np.zeros((3, n))
+            if j.has_A:
+                rho_loc += j.A @ q
+            acc_loc = np.zeros(3)
+            if j.short is not None:
+                e, idx, G = j.short
+                qs, qds = q[idx], qd[idx]
+                Gq = G @ qs
+                rho_loc -= 0.5 * (qs @ Gq) * e
+                Jrho[:, idx] -= np.outer(e, Gq)
+                acc_loc -= (qds @ G @ qds) * e
+            rhod_loc = Jrho @ qd
+            rho = Rp @ rho_loc
+            rhod = Rp @ rhod_loc
+            R = P @ Q
+            r = rp + rho
+            w = wp + P @ w_rel
+            Jw = Jwp + P @ Jw_rel
+            v = vp + cross(wp, rho) + rhod
+            Jv = Jvp - skew(rho) @ Jwp + Rp @ Jrho
+            a = ap + cross(alp, rho) + cross(wp, cross(wp, rho)) + 2.0 * cross(wp, rhod) + Rp @ acc_loc
+            al = alp + cross(wp, P @ w_rel) + P @ al_rel
+            states.append(BodyState(r, R, v, w, Jv, Jw, a, al))
+        return states
+
+    def node_kinematics(self, name, state: BodyState, q, qd):
+        """Inertial positions (N,3), velocities (N,3) and local-frame
+        deformation of a flexible body's nodes."""
+        _, _, f = self.bodies[self.body_index[name]]
+        s, B_loc, _ = self._deformed(f, q, qd)
+        p = s @ state.R.T
+        B = np.einsum("ij,kjl->kil", state.R, B_loc)
+        vel = state.v + cross(state.w, p) + B @ qd[f.idx]
+        return state.r + p, vel, s
+
+    @staticmethod
+    def _deformed(f, q, qd):
+        qe, qde = q[f.idx], qd[f.idx]
+        s = f.s0 + f.Phi @ qe
+        B_loc = f.Phi.copy()
+        acc_loc = np.zeros_like(f.s0)
+        if f.S is not None:
+            Sq = f.S @ qe                                   # (N, ne)
+            s = s - 0.5 * (Sq @ qe)[:, None] * f.axis
+            B_loc = B_loc - f.axis[None, :, None] * Sq[:, None, :]
+            acc_loc = -np.einsum("kij,i,j->k", f.S, qde, qde)[:, None] * f.axis
+        return s, B_loc, acc_loc
+
+    # -------------------------------------------------------- compiled kernel
+    @cached_property
+    def packed_full(self) -> Packed:
+        """Kernel arrays computing every row of M and F."""
+        return pack(self)
+
+    @cached_property
+    def packed_free(self) -> Packed:
+        """Kernel arrays computing the rows of free and prescribed coordinates."""
+        active = np.zeros(self.n_all, bool)
+        active[self.free_idx] = True
+        active[self.presc_idx] = True
+        return pack(self, active)
+
+    @cached_property
+    def _kernel_all_rows(self) -> kernel.CompiledRHS:
+        return kernel.CompiledRHS(self, all_rows=True)
+
+    @cached_property
+    def _kernel_free_rows(self) -> kernel.CompiledRHS:
+        return kernel.CompiledRHS(self)
+
+    def compiled_rhs(self, linear=(), *, all_rows=False) -> kernel.CompiledRHS:
+        """Compiled right-hand side of the free coordinates for `integrate`
+        (see `kernel.CompiledRHS`; `linear` adds generalised spring-dampers;
+        all_rows for `reactions` of fixed coordinates)."""
+        return kernel.CompiledRHS(self, linear, all_rows=all_rows)
+
+    # -------------------------------------------------------------- equations
+    def evaluate_full(self, q, qd, node_forces=None, generalized=None, states=None):
+        """M (n_all x n_all) and F (n_all) over all coordinates (compiled
+        kernel; with precomputed `states` the numpy reference)."""
+        if states is not None:
+            return self.evaluate_full_reference(q, qd, node_forces, generalized, states)
+        return self._kernel_all_rows.full(q, qd, generalized, node_forces)
+
+    def evaluate_full_reference(self, q, qd, node_forces=None, generalized=None, states=None):
+        """M (n_all x n_all) and F (n_all) over all coordinates (numpy reference)."""
+        n = self.n_all
+        M = np.zeros((n, n))
+        F = np.zeros(n) if generalized is None else np.array(generalized, float)
+        g = self.gravity
+        states = self.kinematics(q, qd) if states is None else states
+        for (b, j, f), st in zip(self.bodies, states):
+            if f is None:
+                if b.mass == 0.0 and not np.any(b.inertia):
+                    continue
+                p = st.R @ np.asarray(b.cm, float)
+                Ig = st.R @ np.asarray(b.inertia, float) @ st.R.T
+                JvG = st.Jv - skew(p) @ st.Jw
+                aG = st.a_bias + cross(st.alpha_bias, p) + cross(st.w, cross(st.w, p))
+                M += b.mass * JvG.T @ JvG + st.Jw.T @ Ig @ st.Jw                       # eq. 6-7
+                F += JvG.T @ (b.mass * (g - aG)) - st.Jw.T @ (Ig @ st.alpha_bias + cross(st.w, Ig @ st.w))
+                continue
+            self._flexible(b, f, st, q, qd, M, F, g, None if node_forces is None else node_forces.get(b.name))
+        return M, F
+
+    def _flexible(self, b, f, st, q, qd, M, F, g, fnodes):
+        """Flexible body contribution, eq. 11-19 with Appendix A integrals
+        summed over the nodes at the deformed configuration."""
+        ne = len(f.idx)
+        s, B_loc, acc_loc = self._deformed(f, q, qd)
+        R = st.R
+        p = s @ R.T                                          # (N,3) inertial axes
+        B = np.einsum("ij,kjl->kil", R, B_loc)               # (N,3,ne)
+        qde = qd[f.idx]
+        pd = B @ qde if ne else np.zeros_like(p)             # elastic velocity (N,3)
+        w, al = st.w, st.alpha_bias
+        a_nodes = (st.a_bias + cross(al, p) + cross(w, cross(w, p)) + 2.0 * cross(w, pd)
+                   + acc_loc @ R.T)
+        m = f.m
+        load = m[:, None] * (g - a_nodes)
+        if fnodes is not None:
+            load = load + fnodes
+        # generalised body mass matrix (A2-A7) in y = [v; w; qd_e]
+        mp = m @ p
+        Mb = np.zeros((6 + ne, 6 + ne))
+        Mb[0:3, 0:3] = f.mass * _E
+        Mb[0:3, 3:6] = -skew(mp)
+        Mb[3:6, 0:3] = skew(mp)
+        Mb[3:6, 3:6] = (m @ np.einsum("ki,ki->k", p, p)) * _E - (p * m[:, None]).T @ p
+        fy = np.zeros(6 + ne)
+        fy[0:3] = load.sum(axis=0)
+        fy[3:6] = cross(p, load).sum(axis=0)
+        if ne:
+            mB = m[:, None, None] * B
+            Ct = mB.sum(axis=0)                                             # (3,ne)  C_t^T
+            Cr = cross(p[:, :, None].transpose(0, 2, 1), mB.transpose(0, 2, 1)).sum(axis=0).T  # C_r^T
+            Mb[0:3, 6:] = Ct
+            Mb[6:, 0:3] = Ct.T
+            Mb[3:6, 6:] = Cr
+            Mb[6:, 3:6] = Cr.T
+            Mb[6:, 6:] = np.einsum("kil,kim->lm", mB, B)
+            fy[6:] = np.einsum("kil,ki->l", B, load) - f.K @ q[f.idx] - f.D @ qde      # eq. A16-A19
+        if f.Jp is not None and np.any(f.Jp):
+            eg = R @ f.axis
+            t = np.zeros((len(m), 6 + ne))
+            t[:, 3:6] = eg
+            if f.eta is not None and ne:
+                t[:, 6:] = f.eta
+            Mb += np.einsum("k,ki,kj->ij", f.Jp, t, t)
+            fy -= (f.Jp * (eg @ al)) @ t
+        Jb = np.vstack([st.Jv, st.Jw, np.zeros((ne, self.n_all))])
+        if ne:
+            Jb[6 + np.arange(ne), f.idx] = 1.0
+        M += Jb.T @ Mb @ Jb
+        # subtract the bias part of the generalised body force already in `load`
+        F += Jb.T @ fy
+
+    def evaluate(self, q, qd, t=0.0, node_forces=None, generalized=None):
+        """(M, F) for the free coordinates: M qdd = F (eq. 22)."""
+        q_all, qd_all, qdd_p = self.full_state(q, qd, t)
+        M, F = self._kernel_free_rows.full(q_all, qd_all, generalized, node_forces)
+        return self._restrict(M, F, qdd_p)
+
+    def evaluate_reference(self, q, qd, t=0.0, node_forces=None, generalized=None):
+        """`evaluate` with the numpy reference."""
+        q_all, qd_all, qdd_p = self.full_state(q, qd, t)
+        M, F = self.evaluate_full_reference(q_all, qd_all, node_forces, generalized)
+        return self._restrict(M, F, qdd_p)
+
+    def _restrict(self, M, F, qdd_p):
+        """Free rows and columns; prescribed accelerations to the right (eq. 21-22)."""
+        fi = self.free_idx
+        if len(self.presc_idx):
+            F = F - M[:, self.presc_idx] @ qdd_p[self.presc_idx]
+        return M[np.ix_(fi, fi)], F[fi]

@@ -1,0 +1,998 @@
+"""Compiled (numba) Kane equations M(q) qdd = F(q, qd, t) and the explicit
+DOP853 loop that integrates them without returning to Python.
+
+Same mathematics as the numpy reference in `kane.py` (first paper
+eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
+
+- the system is packed once into flat arrays (`packing.pack`; the array
+  layout is defined here, next to the code that reads it, so that numba's
+  on-disk cache is invalidated whenever either changes);
+- Jacobian work is restricted to the columns that can be non-zero for a body
+  (the coordinates of its ancestors' joints, intersected with the coordinates
+  whose equations are needed), so a fixed-base tower costs no Jacobian work;
+- a flexible body without elastic coordinates is a rigid body (its node sums
+  A2-A7 formed at pack time, eq. 6-7 about its centre of mass), and rigid
+  bodies on constant joints are lumped into their rigid parent (rigid blades
+  into the hub): same mass, centre of mass and inertia, exact to round-off;
+  node polar inertia keeps the flexible form of eq. A with t = [0, e_g]
+  (no gyroscopic term, like the reference);
+- flexible-body node sums are formed in the body frame and the 6+ne blocks
+  rotated once (p = R s, B = R B_loc; B^T B is invariant); the O(N ne^2)
+  sums are two matrix products;
+- the mass matrix of the free coordinates is solved by Cholesky.
+
+Kernels take the packed arrays `data` and reusable `work` arrays (tuples).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# reassociation and FMA for the node sums; no finite-math assumption, so NaN
+# and inf still propagate to the divergence checks
+_FAST = {"reassoc", "contract", "nsz"}
+
+# body_int columns
+(PARENT, KIND, ROT0, NROT, SH0, NSH, COL0, NCOL, NODE0, NNODE, NE, E0, HAS_S, HAS_JP, HAS_ETA, HAS_A,
+ PHI0, S0, ETA0, KD0) = range(20)
+N_INT = 20
+# body kinds
+SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
+# body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
+OFF, R0, MASS, CM, INERTIA, AXIS, POLAR, SH_E = 0, 3, 12, 13, 16, 25, 28, 37
+N_FLOAT = 40
+
+
+# ------------------------------------------------------------------ small helpers
+@njit(cache=True)
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True)
+def _right_rotate(Q, axis, angle):
+    """Q <- Q Rot(axis, angle), Rot the elementary rotation body -> parent."""
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == 0:
+        i1, i2 = 1, 2
+    elif axis == 1:
+        i1, i2 = 2, 0
+    else:
+        i1, i2 = 0, 1
+    for r in range(3):
+        x, y = Q[r, i1], Q[r, i2]
+        Q[r, i1] = c * x + s * y
+        Q[r, i2] = -s * x + c * y
+
+
+@njit(cache=True)
+def _mv(A, x, out):
+    """out = A x for 3x3 A."""
+    for i in range(3):
+        out[i] = A[i, 0] * x[0] + A[i, 1] * x[1] + A[i, 2] * x[2]
+
+
+@njit(cache=True)
+def _mtv(A, x, out):
+    """out = A^T x for 3x3 A."""
+    for i in range(3):
+        out[i] = A[0, i] * x[0] + A[1, i] * x[1] + A[2, i] * x[2]
+
+
+# --------------------------------------------------------------------- kinematics
+@njit(cache=True)
+def kinematics(q, qd, data, work):
+    """Recursive kinematics (parents first) of every body frame, as
+    `KaneEquations.kinematics`: rotation R, position r, velocity v, angular
+    velocity w, bias accelerations a, alpha (qdd = 0) and the Jacobians
+    Jv = dv/dqd, Jw = dw/dqd (partial velocities, eq. 8 and 20) on the
+    body's columns. Results in work (R, vec = [r, v, w, a, alpha], Jv, Jw)."""
+    bi, bf, ipool, rot_axis, rot_c, rot_off, A, shG, active = (data[0], data[1], data[2], data[3], data[4],
+                                                                data[5], data[6], data[7], data[12])
+    R, vec, Jv, Jw, m3n = work[0], work[1], work[2], work[3], work[4]
+    nb = bi.shape[0]
+    n = q.shape[0]
+    Jwrel = m3n[0]
+    Jrho = m3n[1]
+    P = np.empty((3, 3))
+    Q = np.empty((3, 3))
+    t3 = np.empty((9, 3))   # w_rel, alpha_rel, rho_loc, acc_loc, rhod_loc, rho, rhod, P w_rel, Rp acc
+    wrel, alrel, rho_loc, acc_loc, rhod_loc, rho, rhod, Pw, Racc = (t3[0], t3[1], t3[2], t3[3], t3[4], t3[5],
+                                                                    t3[6], t3[7], t3[8])
+    for b in range(nb):
+        p = bi[b, PARENT]
+        if p < 0:
+            p = nb
+        c0, nc = bi[b, COL0], bi[b, NCOL]
+        Rp = R[p]
+        for i in range(3):
+            for j in range(3):
+                P[i, j] = (Rp[i, 0] * bf[b, R0 + j] + Rp[i, 1] * bf[b, R0 + 3 + j]
+                           + Rp[i, 2] * bf[b, R0 + 6 + j])
+                Q[i, j] = 1.0 if i == j else 0.0
+            wrel[i] = 0.0
+            alrel[i] = 0.0
+            rho_loc[i] = bf[b, OFF + i]
+            acc_loc[i] = 0.0
+        for cc in range(nc):
+            col = ipool[c0 + cc]
+            for i in range(3):
+                Jwrel[i, col] = 0.0
+                Jrho[i, col] = A[b, i, col]
+        # elementary rotations: omega_rel = sum_k u_k thetadot_k in the P frame
+        for k in range(bi[b, ROT0], bi[b, ROT0] + bi[b, NROT]):
+            ax = rot_axis[k]
+            th = rot_off[k]
+            thd = 0.0
+            for col in range(n):
+                th += rot_c[k, col] * q[col]
+                thd += rot_c[k, col] * qd[col]
+            u0, u1, u2 = Q[0, ax], Q[1, ax], Q[2, ax]
+            x0, x1, x2 = _cross(wrel[0], wrel[1], wrel[2], u0, u1, u2)
+            alrel[0] += x0 * thd
+            alrel[1] += x1 * thd
+            alrel[2] += x2 * thd
+            wrel[0] += u0 * thd
+            wrel[1] += u1 * thd
+            wrel[2] += u2 * thd
+            for cc in range(nc):
+                col = ipool[c0 + cc]
+                ck = rot_c[k, col]
+                Jwrel[0, col] += u0 * ck
+                Jwrel[1, col] += u1 * ck
+                Jwrel[2, col] += u2 * ck
+            _right_rotate(Q, ax, th)
+        # translation in the parent frame: linear in q, minus the axial shortening (D4)
+        if bi[b, HAS_A]:
+            for i in range(3):
+                for col in range(n):
+                    rho_loc[i] += A[b, i, col] * q[col]
+        ns = bi[b, NSH]
+        if ns > 0:
+            sh = bi[b, SH0]
+            qGq = 0.0
+            qdGqd = 0.0
+            for i_ in range(ns):
+                ia = ipool[sh + i_]
+                Gq = 0.0
+                Gqd = 0.0
+                for j_ in range(ns):
+                    Gq += shG[b, i_, j_] * q[ipool[sh + j_]]
+                    Gqd += shG[b, i_, j_] * qd[ipool[sh + j_]]
+                qGq += q[ia] * Gq
+                qdGqd += qd[ia] * Gqd
+                if active[ia]:
+                    for i in range(3):
+                        Jrho[i, ia] -= bf[b, SH_E + i] * Gq
+            for i in range(3):
+                rho_loc[i] -= 0.5 * qGq * bf[b, SH_E + i]
+                acc_loc[i] -= qdGqd * bf[b, SH_E + i]
+        for i in range(3):
+            s = 0.0
+            for cc in range(nc):
+                col = ipool[c0 + cc]
+                s += Jrho[i, col] * qd[col]
+            rhod_loc[i] = s
+        _mv(Rp, rho_loc, rho)
+        _mv(Rp, rhod_loc, rhod)
+        _mv(Rp, acc_loc, Racc)
+        _mv(P, wrel, Pw)
+        for i in range(3):
+            for j in range(3):
+                R[b, i, j] = P[i, 0] * Q[0, j] + P[i, 1] * Q[1, j] + P[i, 2] * Q[2, j]
+        rp, vp, wp, ap, alp = vec[p, 0], vec[p, 1], vec[p, 2], vec[p, 3], vec[p, 4]
+        x = _cross(wp[0], wp[1], wp[2], rho[0], rho[1], rho[2])
+        wwr = _cross(wp[0], wp[1], wp[2], x[0], x[1], x[2])
+        arho = _cross(alp[0], alp[1], alp[2], rho[0], rho[1], rho[2])
+        wrd = _cross(wp[0], wp[1], wp[2], rhod[0], rhod[1], rhod[2])
+        wPw = _cross(wp[0], wp[1], wp[2], Pw[0], Pw[1], Pw[2])
+        for i in range(3):
+            Pal = P[i, 0] * alrel[0] + P[i, 1] * alrel[1] + P[i, 2] * alrel[2]
+            vec[b, 0, i] = rp[i] + rho[i]
+            vec[b, 1, i] = vp[i] + x[i] + rhod[i]
+            vec[b, 2, i] = wp[i] + Pw[i]
+            vec[b, 3, i] = ap[i] + arho[i] + wwr[i] + 2.0 * wrd[i] + Racc[i]
+            vec[b, 4, i] = alp[i] + wPw[i] + Pal
+        for cc in range(nc):
+            col = ipool[c0 + cc]
+            cr = _cross(rho[0], rho[1], rho[2], Jw[p, 0, col], Jw[p, 1, col], Jw[p, 2, col])
+            for i in range(3):
+                Jw[b, i, col] = Jw[p, i, col] + (P[i, 0] * Jwrel[0, col] + P[i, 1] * Jwrel[1, col]
+                                                 + P[i, 2] * Jwrel[2, col])
+                Jv[b, i, col] = (Jv[p, i, col] - cr[i] + Rp[i, 0] * Jrho[0, col] + Rp[i, 1] * Jrho[1, col]
+                                 + Rp[i, 2] * Jrho[2, col])
+
+
+# ------------------------------------------------------------- body contributions
+@njit(cache=True)
+def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
+    """Generalised mass Mb and force fy of a rigid body in y = [v; w] of its
+    origin (inertial axes): eq. 6-7 with J_vG = J_v - [p~] J_w expanded."""
+    bi, bf = data[0], data[1]
+    R, vec = work[0][b], work[1][b]
+    w, a, al = vec[2], vec[3], vec[4]
+    m = bf[b, MASS]
+    v_scr = work[10]
+    p, fG, Iw, Ial = v_scr[0], v_scr[1], v_scr[2], v_scr[3]
+    Ig = work[11][0]
+    _mv(R, bf[b, CM:CM + 3], p)
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                for l in range(3):
+                    s += R[i, k] * bf[b, INERTIA + 3 * k + l] * R[j, l]
+            Ig[i, j] = s
+    x = _cross(w[0], w[1], w[2], p[0], p[1], p[2])
+    wwp = _cross(w[0], w[1], w[2], x[0], x[1], x[2])
+    alp = _cross(al[0], al[1], al[2], p[0], p[1], p[2])
+    for i in range(3):
+        fG[i] = m * (gvec[i] - (a[i] + alp[i] + wwp[i]))
+    _mv(Ig, w, Iw)
+    _mv(Ig, al, Ial)
+    gyr = _cross(w[0], w[1], w[2], Iw[0], Iw[1], Iw[2])
+    mom = _cross(p[0], p[1], p[2], fG[0], fG[1], fG[2])
+    pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+    for i in range(3):
+        for j in range(3):
+            Mb[i, j] = m if i == j else 0.0
+            Mb[3 + i, 3 + j] = Ig[i, j] + m * ((pp if i == j else 0.0) - p[i] * p[j])
+        fy[i] = fG[i]
+        fy[3 + i] = mom[i] - (Ial[i] + gyr[i])
+    # m [p~] blocks
+    Mb[3, 0], Mb[3, 1], Mb[3, 2] = 0.0, -m * p[2], m * p[1]
+    Mb[4, 0], Mb[4, 1], Mb[4, 2] = m * p[2], 0.0, -m * p[0]
+    Mb[5, 0], Mb[5, 1], Mb[5, 2] = -m * p[1], m * p[0], 0.0
+    for i in range(3):
+        for j in range(3):
+            Mb[j, 3 + i] = Mb[3 + i, j]
+    if bi[b, HAS_JP]:
+        # node polar inertia of flexible bodies without elastic DOFs,
+        # sum J_p e_g e_g^T, with t = [0, e_g] (eq. A): no gyroscopic term
+        for i in range(3):
+            for j in range(3):
+                x = 0.0
+                for k in range(3):
+                    for l in range(3):
+                        x += R[i, k] * bf[b, POLAR + 3 * k + l] * R[j, l]
+                Ig[i, j] = x
+        for i in range(3):
+            for j in range(3):
+                Mb[3 + i, 3 + j] += Ig[i, j]
+                fy[3 + i] -= Ig[i, j] * al[j]
+    if fflag[b]:
+        _add_node_forces(b, fnodes, data, work, fy)
+
+
+@njit(cache=True)
+def _add_node_forces(b, fnodes, data, work, fy):
+    """fy += [sum f_k; sum p_k x f_k] for the nodes of a body without elastic DOFs."""
+    bi, s0 = data[0], data[8]
+    R = work[0][b]
+    pk = work[10][5]
+    a0 = bi[b, NODE0]
+    for k in range(a0, a0 + bi[b, NNODE]):
+        _mv(R, s0[k], pk)
+        f = fnodes[k]
+        mk = _cross(pk[0], pk[1], pk[2], f[0], f[1], f[2])
+        for i in range(3):
+            fy[i] += f[i]
+            fy[3 + i] += mk[i]
+
+
+@njit(cache=True, fastmath=_FAST)
+def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
+    """Generalised mass Mb and force fy of a flexible body in y = [v; w; qd_e]
+    (Wallrapp form, eq. 11-19 and A2-A19): shape integrals summed over the
+    nodes at the deformed configuration, with axial shortening (D4), node
+    polar inertia and torsion. Formed in the body frame (s, B_loc), then
+    rotated (p = R s, B = R B_loc); the O(N ne^2) sums are matrix products."""
+    bi, bf, ipool = data[0], data[1], data[2]
+    s0, nm, Jp, fpool = data[8], data[9], data[10], data[11]
+    R, vec = work[0][b], work[1][b]
+    e_scr, B3, nodes = work[6], work[7], work[12]
+    ne, e0, a0, N = bi[b, NE], bi[b, E0], bi[b, NODE0], bi[b, NNODE]
+    has_S, has_jp, has_eta = bi[b, HAS_S], bi[b, HAS_JP], bi[b, HAS_ETA]
+    qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
+    Ct, Cr = B3[0], B3[1]
+    N3 = 3 * N
+    Phi = fpool[bi[b, PHI0]:bi[b, PHI0] + N3 * ne].reshape((N3, ne))       # row 3k+i: node k, axis i
+    B = nodes[0, :N3 * ne].reshape((N3, ne))                               # B_loc (body frame)
+    W = nodes[1, :N3 * (ne + 1)].reshape((N3, ne + 1))                     # [m_k B_loc, load_k]
+    Sq = nodes[2, :N * ne]
+    s, pdv, load = nodes[3, :N3], nodes[4, :N3], nodes[5, :N3]
+    for l in range(ne):
+        qe[l] = q[ipool[e0 + l]]
+        qde[l] = qd[ipool[e0 + l]]
+    loc = work[10]    # w, alpha, a, g (body frame), m p, f_t, f_r, -, -, -, -, axis, f_k, R m p
+    wb, alb, ab, gb, mp, ft, fr, ax, fk, mpi = (loc[0], loc[1], loc[2], loc[3], loc[4], loc[5], loc[6],
+                                                loc[11], loc[12], loc[13])
+    _mtv(R, vec[2], wb)
+    _mtv(R, vec[4], alb)
+    _mtv(R, vec[3], ab)
+    _mtv(R, gvec, gb)
+    for i in range(3):
+        ax[i] = bf[b, AXIS + i]
+    Irr = work[11][1]
+    # deformed positions s = s0 + Phi q_e - 1/2 (q_e^T S_k q_e) e_axis and
+    # B_loc = Phi - e_axis (S_k q_e)^T (first paper D4; second paper eq. 3)
+    if has_S:
+        Sk = fpool[bi[b, S0]:bi[b, S0] + N * ne * ne].reshape((N * ne, ne))
+    else:
+        Sk = fpool[:0].reshape((0, ne))
+    for k in range(N):
+        qSq = 0.0
+        qdSqd = 0.0
+        if has_S:
+            for l in range(ne):
+                x = 0.0
+                y = 0.0
+                for m_ in range(ne):
+                    x += Sk[k * ne + l, m_] * qe[m_]
+                    y += Sk[k * ne + l, m_] * qde[m_]
+                Sq[k * ne + l] = x
+                qSq += qe[l] * x
+                qdSqd += qde[l] * y
+        for i in range(3):
+            r = 3 * k + i
+            x = s0[a0 + k, i] - 0.5 * qSq * ax[i]
+            y = 0.0
+            for l in range(ne):
+                x += Phi[r, l] * qe[l]
+                bl = Phi[r, l] - (ax[i] * Sq[k * ne + l] if has_S else 0.0)
+                B[r, l] = bl
+                y += bl * qde[l]
+            s[r] = x
+            pdv[r] = y
+        load[3 * k] = -qdSqd          # axial acceleration, kept here until the load is formed
+    # loads m (g - a_node) + f_node and the node rows of G = [I ...; [s_k~] ...]
+    G = work[13][:6 * N3].reshape((6, N3))
+    mass = mp0 = mp1 = mp2 = 0.0
+    J00 = J11 = J22 = J01 = J02 = J12 = 0.0          # sum m s s^T
+    for k in range(N):
+        mk = nm[a0 + k]
+        sk0, sk1, sk2 = s[3 * k], s[3 * k + 1], s[3 * k + 2]
+        acc = load[3 * k]
+        c1 = _cross(alb[0], alb[1], alb[2], sk0, sk1, sk2)
+        c2 = _cross(wb[0], wb[1], wb[2], sk0, sk1, sk2)
+        c3 = _cross(wb[0], wb[1], wb[2], c2[0], c2[1], c2[2])
+        c4 = _cross(wb[0], wb[1], wb[2], pdv[3 * k], pdv[3 * k + 1], pdv[3 * k + 2])
+        if fflag[b]:
+            _mtv(R, fnodes[a0 + k], fk)
+        else:
+            fk[0] = fk[1] = fk[2] = 0.0
+        for i in range(3):
+            an = ab[i] + c1[i] + c3[i] + 2.0 * c4[i] + acc * ax[i]
+            load[3 * k + i] = mk * (gb[i] - an) + fk[i]
+            W[3 * k + i, ne] = load[3 * k + i]
+            for l in range(ne):
+                W[3 * k + i, l] = mk * B[3 * k + i, l]
+            for j in range(3):
+                G[i, 3 * k + j] = 1.0 if i == j else 0.0
+        G[3, 3 * k], G[3, 3 * k + 1], G[3, 3 * k + 2] = 0.0, -sk2, sk1
+        G[4, 3 * k], G[4, 3 * k + 1], G[4, 3 * k + 2] = sk2, 0.0, -sk0
+        G[5, 3 * k], G[5, 3 * k + 1], G[5, 3 * k + 2] = -sk1, sk0, 0.0
+        mass += mk
+        mp0 += mk * sk0
+        mp1 += mk * sk1
+        mp2 += mk * sk2
+        J00 += mk * sk0 * sk0
+        J11 += mk * sk1 * sk1
+        J22 += mk * sk2 * sk2
+        J01 += mk * sk0 * sk1
+        J02 += mk * sk0 * sk2
+        J12 += mk * sk1 * sk2
+    mp[0], mp[1], mp[2] = mp0, mp1, mp2
+    tr = J00 + J11 + J22
+    Irr[0, 0], Irr[1, 1], Irr[2, 2] = tr - J00, tr - J11, tr - J22       # sum m (s.s E - s s^T)  (A5)
+    Irr[0, 1] = Irr[1, 0] = -J01
+    Irr[0, 2] = Irr[2, 0] = -J02
+    Irr[1, 2] = Irr[2, 1] = -J12
+    # [C_t^T; C_r^T] = sum_k [m B_k; s_k x m B_k] (A3-A4), with [sum load_k; sum s_k x load_k]
+    GW = np.dot(G, W)
+    for i in range(3):
+        ft[i] = GW[i, ne]
+        fr[i] = GW[3 + i, ne]
+        for l in range(ne):
+            Ct[i, l] = GW[i, l]
+            Cr[i, l] = GW[3 + i, l]
+    # sum_k m_k B_k^T B_k (A7), with sum_k B_k^T load_k (A16)
+    BW = np.dot(B.T, W)
+    Mee = BW[:, :ne]
+    for l in range(ne):
+        fe[l] = BW[l, ne]
+    if has_jp:
+        # node polar inertia with t = [0, e_g, eta] (torsion), eq. A
+        eal = ax[0] * alb[0] + ax[1] * alb[1] + ax[2] * alb[2]
+        for k in range(N):
+            jp = Jp[a0 + k]
+            for i in range(3):
+                for j in range(3):
+                    Irr[i, j] += jp * ax[i] * ax[j]
+                fr[i] -= jp * eal * ax[i]
+        if has_eta:
+            eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
+            for k in range(N):
+                jp = Jp[a0 + k]
+                for l in range(ne):
+                    el = eta[k, l]
+                    for i in range(3):
+                        Cr[i, l] += jp * ax[i] * el
+                    fe[l] -= jp * eal * el
+                    for m_ in range(ne):
+                        Mee[l, m_] += jp * el * eta[k, m_]
+    # elastic forces (A16-A19)
+    KD = fpool[bi[b, KD0]:bi[b, KD0] + 2 * ne * ne].reshape((2, ne, ne))
+    for l in range(ne):
+        x = 0.0
+        for m_ in range(ne):
+            x += KD[0, l, m_] * qe[m_] + KD[1, l, m_] * qde[m_]
+        fe[l] -= x
+    # rotate to inertial axes: p = R s, B = R B_loc
+    _mv(R, mp, mpi)
+    for i in range(3):
+        for j in range(3):
+            Mb[i, j] = mass if i == j else 0.0
+            x = 0.0
+            for k in range(3):
+                for l in range(3):
+                    x += R[i, k] * Irr[k, l] * R[j, l]
+            Mb[3 + i, 3 + j] = x
+    Mb[3, 0], Mb[3, 1], Mb[3, 2] = 0.0, -mpi[2], mpi[1]
+    Mb[4, 0], Mb[4, 1], Mb[4, 2] = mpi[2], 0.0, -mpi[0]
+    Mb[5, 0], Mb[5, 1], Mb[5, 2] = -mpi[1], mpi[0], 0.0
+    for i in range(3):
+        for j in range(3):
+            Mb[j, 3 + i] = Mb[3 + i, j]
+    for l in range(ne):
+        for i in range(3):
+            ct = R[i, 0] * Ct[0, l] + R[i, 1] * Ct[1, l] + R[i, 2] * Ct[2, l]
+            cr = R[i, 0] * Cr[0, l] + R[i, 1] * Cr[1, l] + R[i, 2] * Cr[2, l]
+            Mb[i, 6 + l] = ct
+            Mb[6 + l, i] = ct
+            Mb[3 + i, 6 + l] = cr
+            Mb[6 + l, 3 + i] = cr
+        for m_ in range(l, ne):
+            Mb[6 + l, 6 + m_] = Mee[l, m_]
+            Mb[6 + m_, 6 + l] = Mee[l, m_]
+        fy[6 + l] = fe[l]
+    for i in range(3):
+        fy[i] = R[i, 0] * ft[0] + R[i, 1] * ft[1] + R[i, 2] * ft[2]
+        fy[3 + i] = R[i, 0] * fr[0] + R[i, 1] * fr[1] + R[i, 2] * fr[2]
+
+
+@njit(cache=True)
+def _project(b, ne, data, work, Mb, fy, M, F):
+    """M += Jb^T Mb Jb and F += Jb^T fy with Jb = [Jv; Jw; E_e] (eq. 7, 18-19),
+    on the body's Jacobian columns and its own elastic coordinates."""
+    bi, ipool = data[0], data[2]
+    Jv, Jw, m6n = work[2][b], work[3][b], work[5]
+    c0, nc, e0 = bi[b, COL0], bi[b, NCOL], bi[b, E0]
+    J6, T = m6n[0], m6n[1]
+    for cc in range(nc):
+        col = ipool[c0 + cc]
+        for i in range(3):
+            J6[i, cc] = Jv[i, col]
+            J6[3 + i, cc] = Jw[i, col]
+    for cc in range(nc):
+        for r in range(6 + ne):
+            x = 0.0
+            for k in range(6):
+                x += Mb[r, k] * J6[k, cc]
+            T[r, cc] = x                         # (Mb [J6; 0])[:, cc]
+    for ci in range(nc):
+        i = ipool[c0 + ci]
+        x = 0.0
+        for k in range(6):
+            x += J6[k, ci] * fy[k]
+        F[i] += x
+        for cj in range(ci, nc):
+            j = ipool[c0 + cj]
+            x = 0.0
+            for k in range(6):
+                x += J6[k, ci] * T[k, cj]
+            M[i, j] += x
+            if cj != ci:
+                M[j, i] += x
+    for l in range(ne):
+        il = ipool[e0 + l]
+        F[il] += fy[6 + l]
+        for cj in range(nc):
+            j = ipool[c0 + cj]
+            M[il, j] += T[6 + l, cj]
+            M[j, il] += T[6 + l, cj]
+        for m_ in range(ne):
+            M[il, ipool[e0 + m_]] += Mb[6 + l, 6 + m_]
+
+
+@njit(cache=True)
+def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F):
+    """M (n x n) and F (n) over all coordinates (eq. 22 before restriction);
+    rows/columns of inactive coordinates are left zero."""
+    bi = data[0]
+    Mb, fy = work[8], work[9]
+    kinematics(q, qd, data, work)
+    n = q.shape[0]
+    for i in range(n):
+        F[i] = gen[i]
+        for j in range(n):
+            M[i, j] = 0.0
+    for b in range(bi.shape[0]):
+        kind = bi[b, KIND]
+        if kind == SKIP or (kind == LUMPED and not fflag[b]):
+            continue
+        if kind == RIGID:
+            _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy)
+        elif kind == FLEX:
+            _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy)
+        else:   # lumped into an ancestor: only its node forces
+            for i in range(6):
+                fy[i] = 0.0
+                for j in range(6):
+                    Mb[i, j] = 0.0
+            _add_node_forces(b, fnodes, data, work, fy)
+        _project(b, bi[b, NE] if kind == FLEX else 0, data, work, Mb, fy, M, F)
+
+
+# ------------------------------------------------------------- free coordinates
+# status codes shared with integrate.py
+OK, NON_FINITE_STATE, BEYOND_BOUND, SINGULAR, NON_FINITE_ACC, STEP_COLLAPSE = 0, 1, 2, 3, 4, 5
+
+
+@njit(cache=True, fastmath=_FAST)
+def _cholesky_solve(A, x):
+    """Solve A y = x in place (x <- y, A <- its Cholesky factor) for a
+    symmetric positive definite A (the mass matrix); False if A is not."""
+    n = A.shape[0]
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= A[j, k] * A[j, k]
+        if not d > 0.0:
+            return False
+        d = np.sqrt(d)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= A[i, k] * A[j, k]
+            A[i, j] = s / d
+    for i in range(n):
+        s = x[i]
+        for k in range(i):
+            s -= A[i, k] * x[k]
+        x[i] = s / A[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= A[k, i] * x[k]
+        x[i] = s / A[i, i]
+    return True
+
+
+@njit(cache=True)
+def _lu_solve(A, x):
+    """Solve A y = x in place (x <- y) by Gaussian elimination with partial
+    pivoting (as LAPACK getrf/getrs); False if a pivot is exactly zero."""
+    n = A.shape[0]
+    for k in range(n):
+        piv = k
+        big = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > big:
+                big = abs(A[i, k])
+                piv = i
+        if big == 0.0:
+            return False
+        if piv != k:
+            for j in range(n):
+                A[k, j], A[piv, j] = A[piv, j], A[k, j]
+            x[k], x[piv] = x[piv], x[k]
+        for i in range(k + 1, n):
+            l = A[i, k] / A[k, k]
+            if l != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= l * A[k, j]
+                x[i] -= l * x[k]
+    for k in range(n - 1, -1, -1):
+        s = x[k]
+        for j in range(k + 1, n):
+            s -= A[k, j] * x[j]
+        x[k] = s / A[k, k]
+    return True
+
+
+@njit(cache=True)
+def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
+    """Equations of the free coordinates at time t and state x = [q, qd]:
+    M_ff and F_f - M_fp qdd_p (eq. 21-22) into rwork (Mf, Ff); with `solve`,
+    also out = [qd, qdd], qdd = M_ff^-1 (F_f - M_fp qdd_p) (Cholesky, which
+    overwrites Mf; Gaussian elimination if M_ff is not positive definite),
+    checking the state (finite, |q| <= bounds) and the accelerations as
+    integrate.py does.
+    Returns (status, index of an offending coordinate or -1).
+
+    prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
+    gravity, linear (row, col) and (stiffness, damping) of generalised
+    spring-dampers gen_row -= k q_col + c qd_col, node forces, node-force
+    flag per body); rwork = (rows q_all, qd_all, qdd_p, gen; M; F; Mf; Ff)."""
+    free, presc, pcoef, fixed, gvec, lin_idx, lin_kc, fnodes, fflag = prob
+    st, M, F, Mf, Ff = rwork[0], rwork[1], rwork[2], rwork[3], rwork[4]
+    q_all, qd_all, qddp, gen = st[0], st[1], st[2], st[3]
+    nf = free.shape[0]
+    if solve:
+        for i in range(2 * nf):
+            if not np.isfinite(x[i]):
+                return NON_FINITE_STATE, i
+        for i in range(nf):
+            if abs(x[i]) > bounds[i]:
+                return BEYOND_BOUND, i
+    n = q_all.shape[0]
+    for i in range(n):
+        q_all[i] = fixed[i]
+        qd_all[i] = 0.0
+        qddp[i] = 0.0
+        gen[i] = 0.0
+    for k in range(nf):
+        q_all[free[k]] = x[k]
+        qd_all[free[k]] = x[nf + k]
+    for k in range(presc.shape[0]):
+        i = presc[k]
+        q_all[i] = pcoef[k, 0] + pcoef[k, 1] * t + 0.5 * pcoef[k, 2] * t * t
+        qd_all[i] = pcoef[k, 1] + pcoef[k, 2] * t
+        qddp[i] = pcoef[k, 2]
+    for k in range(lin_idx.shape[0]):
+        gen[lin_idx[k, 0]] -= lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
+    assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
+    for a in range(nf):
+        v = F[free[a]]
+        for k in range(presc.shape[0]):
+            v -= M[free[a], presc[k]] * qddp[presc[k]]
+        Ff[a] = v
+        for b in range(nf):
+            Mf[a, b] = M[free[a], free[b]]
+    if not solve:
+        return OK, -1
+    for a in range(nf):
+        out[a] = x[nf + a]
+        out[nf + a] = Ff[a]
+    if not _cholesky_solve(Mf, out[nf:]):
+        # not positive definite: Gaussian elimination, singular only at an exact zero pivot
+        for a in range(nf):
+            out[nf + a] = Ff[a]
+            for b in range(nf):
+                Mf[a, b] = M[free[a], free[b]]
+        if not _lu_solve(Mf, out[nf:]):
+            return SINGULAR, -1
+    for a in range(nf):
+        if not np.isfinite(out[nf + a]):
+            return NON_FINITE_ACC, -1
+    return OK, -1
+
+
+@njit(cache=True)
+def reaction_loads(ts, X, rows, prob, rwork, data, work, out):
+    """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
+    `rows` at the states X[k] = [q, qd] and times ts[k] (a constraint
+    coordinate's equation gives the load that holds it, first paper eq. 22);
+    needs arrays packed with all rows. Returns a status code."""
+    nf = X.shape[1] // 2
+    n = rwork[1].shape[0]
+    acc = np.empty(2 * nf)
+    inf = np.full(nf, np.inf)
+    qdd = np.empty(n)
+    for k in range(ts.shape[0]):
+        code, _ = free_system(ts[k], X[k], acc, True, inf, prob, rwork, data, work)
+        if code != OK:
+            return code
+        M, F, qddp = rwork[1], rwork[2], rwork[0][2]
+        for i in range(n):
+            qdd[i] = qddp[i]
+        for a in range(nf):
+            qdd[prob[0][a]] = acc[nf + a]
+        for j in range(rows.shape[0]):
+            r = rows[j]
+            v = F[r]
+            for i in range(n):
+                v -= M[r, i] * qdd[i]
+            out[k, j] = v
+    return OK
+
+
+@njit(cache=True)
+def _rms(x):
+    s = 0.0
+    for v in x:
+        s += v * v
+    return np.sqrt(s / x.shape[0])
+
+
+@njit(cache=True)
+def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
+    """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
+    K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
+    for i in range(len(y)):
+        acc = 0.0
+        for j in range(s):
+            acc += K[j, i] * A[s, j]
+        ys[i] = y[i] + acc * h
+    return free_system(t + C[s] * h, ys, K[s], True, bounds, prob, rwork, data, work)
+
+
+@njit(cache=True)
+def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
+    """Dormand-Prince 8(5,3) with the step control, initial step and 7th-order
+    dense output of scipy.integrate.DOP853 (Hairer, Norsett & Wanner II.10),
+    evaluated at t_eval (increasing, within [0, tmax]) into Y.
+
+    Returns (status, time, n_rhs, n_out, index): status OK, a divergence code
+    of `_state_derivative` (time = where it occurred) or STEP_COLLAPSE."""
+    A, B, C, E3, E5, D = tab
+    nx = x0.shape[0]
+    n_stages = B.shape[0]
+    K = np.zeros((A.shape[0], nx))
+    y = x0.copy()
+    y_new = np.empty(nx)
+    f = np.empty(nx)
+    f_new = np.empty(nx)
+    ys = np.empty(nx)
+    scale = np.empty(nx)
+    e5 = np.empty(nx)
+    e3 = np.empty(nx)
+    Fd = np.empty((3 + D.shape[0], nx))
+    err_exp = -1.0 / 8.0                     # error estimator order 7
+    SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+    nfev = 1
+    t = 0.0
+    code, idx = free_system(t, y, f, True, bounds, prob, rwork, data, work)
+    if code != OK:
+        return code, t, nfev, 0, idx
+    # initial step (scipy select_initial_step, order 7)
+    for i in range(nx):
+        scale[i] = atol[i] + abs(y[i]) * rtol
+        e5[i] = y[i] / scale[i]
+        e3[i] = f[i] / scale[i]
+    d0, d1 = _rms(e5), _rms(e3)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, tmax)
+    for i in range(nx):
+        ys[i] = y[i] + h0 * f[i]
+    code, idx = free_system(t + h0, ys, f_new, True, bounds, prob, rwork, data, work)
+    nfev += 1
+    if code != OK:
+        return code, t + h0, nfev, 0, idx
+    for i in range(nx):
+        e5[i] = (f_new[i] - f[i]) / scale[i]
+    d2 = _rms(e5) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    h_abs = min(100 * h0, h1, tmax, max_step)
+    n_out = 0
+    nt = t_eval.shape[0]
+    while t < tmax:
+        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs > max_step:
+            h_abs = max_step
+        elif h_abs < min_step:
+            h_abs = min_step
+        accepted = False
+        rejected = False
+        h = 0.0
+        t_new = t
+        while not accepted:
+            if h_abs < min_step:
+                return STEP_COLLAPSE, t, nfev, n_out, -1
+            h = h_abs
+            t_new = t + h
+            if t_new > tmax:
+                t_new = tmax
+            h = t_new - t
+            h_abs = abs(h)
+            # Runge-Kutta stages
+            for i in range(nx):
+                K[0, i] = f[i]
+            for s in range(1, n_stages):
+                code, idx = _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                nfev += 1
+                if code != OK:
+                    return code, t + C[s] * h, nfev, n_out, idx
+            for i in range(nx):
+                acc = 0.0
+                for j in range(n_stages):
+                    acc += K[j, i] * B[j]
+                y_new[i] = y[i] + h * acc
+            code, idx = free_system(t + h, y_new, f_new, True, bounds, prob, rwork, data, work)
+            nfev += 1
+            if code != OK:
+                return code, t + h, nfev, n_out, idx
+            for i in range(nx):
+                K[n_stages, i] = f_new[i]
+            # error estimate (scipy DOP853._estimate_error_norm)
+            for i in range(nx):
+                scale[i] = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
+                a5 = 0.0
+                a3 = 0.0
+                for j in range(n_stages + 1):
+                    a5 += K[j, i] * E5[j]
+                    a3 += K[j, i] * E3[j]
+                e5[i] = a5 / scale[i]
+                e3[i] = a3 / scale[i]
+            n5 = 0.0
+            n3 = 0.0
+            for i in range(nx):
+                n5 += e5[i] * e5[i]
+                n3 += e3[i] * e3[i]
+            if n5 == 0.0 and n3 == 0.0:
+                error_norm = 0.0
+            else:
+                error_norm = abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * nx)
+            if error_norm < 1:
+                if error_norm == 0:
+                    factor = MAX_FACTOR
+                else:
+                    factor = min(MAX_FACTOR, SAFETY * error_norm ** err_exp)
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                accepted = True
+            else:
+                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** err_exp)
+                rejected = True
+        t_old = t
+        t = t_new
+        # dense output on the outputs in (t_old, t] (all remaining at the end)
+        if n_out < nt and (t_eval[n_out] <= t or t >= tmax):
+            for s in range(n_stages + 1, A.shape[0]):
+                code, idx = _stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                nfev += 1
+                if code != OK:
+                    return code, t_old + C[s] * h, nfev, n_out, idx
+            for i in range(nx):
+                dy = y_new[i] - y[i]
+                Fd[0, i] = dy
+                Fd[1, i] = h * K[0, i] - dy
+                Fd[2, i] = 2 * dy - h * (f_new[i] + K[0, i])
+                for r in range(D.shape[0]):
+                    acc = 0.0
+                    for j in range(A.shape[0]):
+                        acc += D[r, j] * K[j, i]
+                    Fd[3 + r, i] = h * acc
+            while n_out < nt and (t_eval[n_out] <= t or t >= tmax):
+                xx = (t_eval[n_out] - t_old) / h
+                for i in range(nx):
+                    v = 0.0
+                    for r in range(Fd.shape[0] - 1, -1, -1):
+                        v += Fd[r, i]
+                        if (Fd.shape[0] - 1 - r) % 2 == 0:
+                            v *= xx
+                        else:
+                            v *= 1 - xx
+                    Y[n_out, i] = v + y[i]
+                n_out += 1
+        for i in range(nx):
+            y[i] = y_new[i]
+            f[i] = f_new[i]
+    return OK, t, nfev, n_out, -1
+
+
+# ------------------------------------------------------------- Python front
+def pack(eq, active=None):
+    """`packing.pack` (the kernel's arrays of a `KaneEquations`)."""
+    from modesel.multibody.packing import pack as _pack
+    return _pack(eq, active)
+
+
+class CompiledRHS:
+    """A `KaneEquations` packed for the compiled kernel, with its free,
+    prescribed and fixed coordinates.
+
+    linear: iterable of (row, column, stiffness, damping) over coordinate
+    names: generalised spring-dampers gen[row] -= k q[column] + c qd[column]
+    [N/m, N s/m or N m/rad, N m s/rad] (e.g. the drivetrain, ElastoDyn
+    DTTorSpr/DTTorDmp). Callable as (t, q, qd) -> (M, F) of the free
+    coordinates like `Built.M_F`; `accelerations(t, q, qd)` solves inside the
+    kernel; `dop853` integrates entirely compiled, which needs every
+    prescribed coordinate to be polynomial in t (`compilable`). `full`
+    evaluates all coordinates: every row with all_rows=True, else only the
+    rows of free and prescribed coordinates (the others are zero);
+    `reactions` (all_rows) gives the reaction loads of fixed coordinates at
+    many output times in one compiled call."""
+
+    def __init__(self, eq, linear=(), *, all_rows=False):
+        self.eq = eq
+        self.packed = eq.packed_full if all_rows else eq.packed_free
+        n, nf = eq.n_all, len(eq.free_idx)
+        lin = list(linear)
+        lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _ in lin], np.int64).reshape(-1, 2)
+        lin_kc = np.array([[k, c] for _, _, k, c in lin], float).reshape(-1, 2)
+        self.compilable = all(p.function is None for p in eq.presc)
+        pcoef = np.array([[p.value, p.rate, p.accel] for p in eq.presc], float).reshape(-1, 3)
+        n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
+        self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
+                     eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
+                     np.zeros((n_nodes, 3)), np.zeros(len(eq.bodies), np.int64))
+        self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
+        self.n_free = nf
+        self._x = np.zeros(2 * nf)
+        self._out = np.zeros(2 * nf)
+        self._no_bounds = np.full(nf, np.inf)
+
+    def _problem_at(self, t):
+        """(time passed to the kernel, prob): prescribed callables are
+        evaluated here and passed as a constant-acceleration polynomial at 0."""
+        if self.compilable:
+            return float(t), self.prob
+        pcoef = np.array([p(t) for p in self.eq.presc], float).reshape(-1, 3)
+        return 0.0, self.prob[:2] + (pcoef,) + self.prob[3:]
+
+    def _free(self, t, q, qd, solve):
+        x = self._x
+        x[:self.n_free] = q
+        x[self.n_free:] = qd
+        tk, prob = self._problem_at(t)
+        p = self.packed
+        return free_system(tk, x, self._out, solve, self._no_bounds, prob, self.rwork, p.data, p.work)[0]
+
+    def __call__(self, t, q, qd):
+        self._free(t, q, qd, False)
+        return self.rwork[3].copy(), self.rwork[4].copy()
+
+    def accelerations(self, t, q, qd):
+        """(qdd, status) at the free coordinates; status OK, SINGULAR or NON_FINITE_ACC
+        (the state itself is checked by the caller)."""
+        code = self._free(t, q, qd, True)
+        return self._out[self.n_free:].copy(), code
+
+    def full(self, q_all, qd_all, generalized=None, node_forces=None):
+        """M (n_all x n_all) and F (n_all) at all coordinates; node_forces
+        {flexible body name: (N, 3) inertial forces [N]}."""
+        n = self.eq.n_all
+        gen = np.zeros(n) if generalized is None else np.asarray(generalized, float)
+        fnodes, flag = self.prob[7], self.prob[8]
+        if node_forces:
+            fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
+            for name, f in node_forces.items():
+                first, count = self.packed.node_start[name]
+                fnodes[first:first + count] = f
+                flag[self.eq.body_index[name]] = 1
+        M, F = np.empty((n, n)), np.empty(n)
+        p = self.packed
+        assemble(np.asarray(q_all, float), np.asarray(qd_all, float), self.prob[4], fnodes, flag, gen,
+                 p.data, p.work, M, F)
+        return M, F
+
+    def reactions(self, t, q, qd, rows):
+        """Reaction loads F_r - M_r qdd [N or N m] of coordinates `rows`
+        (names, e.g. the models' reaction coordinates) at times t (n_t,) and
+        free states q, qd (n_t, n_free): (n_t, len(rows)). Needs all_rows."""
+        if self.packed is not self.eq.packed_full:
+            raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
+        t = np.atleast_1d(np.asarray(t, float))
+        X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
+        idx = np.array([self.eq.index[r] for r in rows], np.int64)
+        out = np.zeros((len(t), len(idx)))
+        if not self.compilable:
+            for k, tk in enumerate(t):
+                tk0, prob = self._problem_at(tk)
+                reaction_loads(np.array([tk0]), X[k:k + 1], idx, prob, self.rwork, self.packed.data,
+                               self.packed.work, out[k:k + 1])
+            return out
+        code = reaction_loads(t, X, idx, self.prob, self.rwork, self.packed.data, self.packed.work, out)
+        if code != OK:
+            out[:] = np.nan
+        return out
+
+    def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+        """Integrate from x0 = [q, qd] over [0, tmax]:
+        (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval)."""
+        if not self.compilable:
+            raise ValueError("a prescribed coordinate is a Python function: use scipy")
+        Y = np.zeros((len(t_eval), len(x0)))
+        p = self.packed
+        code, t_stop, nfev, n_out, idx = dop853(np.array(x0, float), np.asarray(t_eval, float), float(tmax),
+                                                float(rtol), np.asarray(atol, float), float(max_step),
+                                                np.asarray(bounds, float), tuple(table), self.prob, self.rwork,
+                                                p.data, p.work, Y)
+        return code, t_stop, nfev, idx, Y[:n_out]

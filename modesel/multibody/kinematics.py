@@ -1,0 +1,130 @@
+"""Fast kinematics for loads that depend on the motion (aerodynamics, tower
+drag): body frames and the positions/velocities of points on flexible bodies.
+
+`FrameKinematics(eq)(q_all, qd_all)` returns every body frame's rotation R
+and origin position r, velocity v, angular velocity w (inertial axes),
+computed by the engine's compiled recursive kinematics (`kernel.kinematics`,
+the compiled twin of `KaneEquations.kinematics`) on its own packed arrays.
+
+`PointSet` holds points of one flexible body (its quadrature nodes or
+other stations such as the AeroDyn nodes): undeformed positions s0, shapes
+Phi, axial-shortening matrices S. `points(...)` gives their inertial
+positions and velocities, the compiled twin of
+`KaneEquations.node_kinematics`:
+
+    s   = s0 + Phi q_e - 1/2 (q_e^T S q_e) e_axis          (body frame)
+    p   = r + R s
+    v_p = v + w x (R s) + R (Phi - e_axis (S q_e)^T) qd_e
+
+tests/test_turbine.py holds both equal to the numpy reference.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from modesel.multibody import kernel
+
+
+class FrameKinematics:
+    """Body frames of a `KaneEquations` at any state (compiled)."""
+
+    def __init__(self, eq):
+        active = np.zeros(eq.n_all, bool)
+        active[eq.free_idx] = True
+        active[eq.presc_idx] = True
+        self.packed = kernel.pack(eq, active)
+        self.index = dict(eq.body_index)
+
+    def __call__(self, q_all, qd_all):
+        """(R (n_bodies+1, 3, 3), vec (n_bodies+1, 5, 3)) with vec[b] = [r, v, w, a_bias,
+        alpha_bias] of body b (index `self.index[name]`)."""
+        p = self.packed
+        kernel.kinematics(np.asarray(q_all, float), np.asarray(qd_all, float), p.data, p.work)
+        return p.work[0], p.work[1]
+
+
+@dataclass
+class PointSet:
+    """Points of a flexible body: s0 (M,3) [m], Phi (M,3,ne), S (M,ne,ne) or
+    zeros, axis (3,), idx (ne,) indices of the body's elastic coordinates,
+    body (index into the frame arrays)."""
+
+    body: int
+    s0: np.ndarray
+    Phi: np.ndarray
+    S: np.ndarray
+    axis: np.ndarray
+    idx: np.ndarray
+
+    @classmethod
+    def of_body(cls, eq, name):
+        """The quadrature nodes of flexible body `name`."""
+        b = eq.system.body(name)
+        return cls.of_points(eq, name, b.nodes, b.shapes, b.shortening)
+
+    @classmethod
+    def of_points(cls, eq, name, s0, Phi, S):
+        """Points of flexible body `name` with their own s0, Phi, S (S None: no shortening)."""
+        b = eq.system.body(name)
+        ne = b.n_elastic
+        s0 = np.asarray(s0, float)
+        M = len(s0)
+        Phi = np.asarray(Phi, float) if (ne and Phi is not None) else np.zeros((M, 3, ne))
+        S = np.zeros((M, ne, ne)) if (S is None or not ne) else np.asarray(S, float)
+        idx = np.array([eq.index[d] for d in b.dofs], dtype=np.int64)
+        return cls(eq.body_index[name], np.ascontiguousarray(s0), np.ascontiguousarray(Phi),
+                   np.ascontiguousarray(S), np.asarray(b.axis, float), idx)
+
+    def kinematics(self, frames, q_all, qd_all, pos=None, vel=None):
+        """Inertial positions and velocities (M,3) of the points."""
+        R, vec = frames
+        M = len(self.s0)
+        pos = np.empty((M, 3)) if pos is None else pos
+        vel = np.empty((M, 3)) if vel is None else vel
+        points(R[self.body], vec[self.body], self.s0, self.Phi, self.S, self.axis,
+               q_all[self.idx], qd_all[self.idx], pos, vel)
+        return pos, vel
+
+
+@njit(cache=True)
+def points(R, vec, s0, Phi, S, axis, qe, qde, pos, vel):
+    """Positions `pos` and velocities `vel` (M,3) of points on a flexible
+    body with frame (R, vec = [r, v, w, ...]) at elastic state (qe, qde)."""
+    ne = qe.shape[0]
+    r, v, w = vec[0], vec[1], vec[2]
+    s = np.empty(3)
+    sd = np.empty(3)
+    Sq = np.empty(ne)
+    for k in range(s0.shape[0]):
+        qSq = 0.0
+        qdSq = 0.0
+        for l in range(ne):
+            x = 0.0
+            for m in range(ne):
+                x += S[k, l, m] * qe[m]
+            Sq[l] = x
+            qSq += qe[l] * x
+            qdSq += qde[l] * x
+        for i in range(3):
+            si = s0[k, i] - 0.5 * qSq * axis[i]
+            di = -qdSq * axis[i]
+            for l in range(ne):
+                si += Phi[k, i, l] * qe[l]
+                di += Phi[k, i, l] * qde[l]
+            s[i] = si
+            sd[i] = di
+        for i in range(3):
+            p = R[i, 0] * s[0] + R[i, 1] * s[1] + R[i, 2] * s[2]
+            pd = R[i, 0] * sd[0] + R[i, 1] * sd[1] + R[i, 2] * sd[2]
+            pos[k, i] = r[i] + p
+            vel[k, i] = v[i] + pd
+        # w x (R s)
+        p0 = pos[k, 0] - r[0]
+        p1 = pos[k, 1] - r[1]
+        p2 = pos[k, 2] - r[2]
+        vel[k, 0] += w[1] * p2 - w[2] * p1
+        vel[k, 1] += w[2] * p0 - w[0] * p2
+        vel[k, 2] += w[0] * p1 - w[1] * p0

@@ -1,0 +1,237 @@
+"""Packing a `KaneEquations` into the flat arrays of the compiled kernel
+(`kernel.py`, which defines the layout constants used here).
+
+`pack(eq, active)` returns `Packed`: `data`, a tuple of arrays
+
+    (body_int (nb, N_INT), body_float (nb, N_FLOAT), int pool, rotation axes,
+     rotation coefficients (n_rot, n), rotation offsets, translation matrices
+     A (nb, 3, n), shortening matrices G (nb, ns, ns), node positions s0
+     (N_nodes, 3), node masses, node polar inertias, float pool, active mask)
+
+(the int pool holds each body's Jacobian columns, elastic coordinates and
+shortening coordinates; the float pool each flexible body's Phi (N,3,ne),
+S (N,ne,ne), eta (N,ne), K and D, contiguous), and `work`, the arrays the
+kernels write (body frames: R (nb+1,3,3) and vec (nb+1,5,3) = [r, v, w,
+a_bias, alpha_bias] with slot nb the ground; Jacobians; scratch).
+Rigid bodies on constant joints are lumped here (see `kernel`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
+                                          INERTIA, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE, NNODE,
+                                          NODE0, NROT, NSH, OFF, PARENT, PHI0, POLAR, R0, RIGID, ROT0, S0,
+                                          SH0, SH_E, SKIP)
+
+
+@dataclass
+class Packed:
+    """Flat arrays of a compiled system (`data`) and reusable work arrays."""
+
+    data: tuple
+    work: tuple
+    n_all: int
+    n_bodies: int
+    node_start: dict      # flexible body name -> (first node, node count)
+
+
+def _joint_columns(joint, n):
+    cols = set(np.flatnonzero(np.any(joint.A != 0.0, axis=0))) if joint.has_A else set()
+    for _, c, _ in joint.rotations:
+        cols |= set(np.flatnonzero(c != 0.0))
+    if joint.short is not None:
+        cols |= set(int(i) for i in joint.short[1])
+    return cols
+
+
+def pack(eq, active=None) -> Packed:
+    """Pack `eq` (a `KaneEquations`) for the kernels. `active` (n_all bool):
+    coordinates whose rows/columns of M and F are needed (default all);
+    the others must have zero rate (fixed coordinates)."""
+    n = eq.n_all
+    active = np.ones(n, bool) if active is None else np.asarray(active, bool)
+    nb = len(eq.bodies)
+    slot = {b.name: i for i, (b, _, _) in enumerate(eq.bodies)}
+    bi = np.zeros((nb, N_INT), np.int64)
+    bf = np.zeros((nb, N_FLOAT))
+    A = np.zeros((nb, 3, n))
+    rot_axis, rot_c, rot_off = [], [], []
+    ipool = []
+    cols_of = []
+    flex_nodes = []
+    nsh_max = max([len(j.short[1]) for _, j, _ in eq.bodies if j.short is not None] + [1])
+    ne_max = max([len(f.idx) for _, _, f in eq.bodies if f is not None] + [1])
+    shG = np.zeros((nb, nsh_max, nsh_max))
+    node_start = {}
+    n_nodes = 0
+    for k, (b, j, f) in enumerate(eq.bodies):
+        parent = -1 if j.parent is None else slot[j.parent]
+        bi[k, PARENT] = parent
+        bf[k, OFF:OFF + 3] = j.offset
+        bf[k, R0:R0 + 9] = j.R0.ravel()
+        if j.has_A:
+            A[k] = j.A
+            bi[k, HAS_A] = 1
+        bi[k, ROT0], bi[k, NROT] = len(rot_axis), len(j.rotations)
+        for axis, c, off in j.rotations:
+            rot_axis.append(axis)
+            rot_c.append(c)
+            rot_off.append(off)
+        if j.short is not None:
+            e, idx, G = j.short
+            bi[k, SH0], bi[k, NSH] = len(ipool), len(idx)
+            ipool.extend(int(i) for i in idx)
+            shG[k, :len(idx), :len(idx)] = G
+            bf[k, SH_E:SH_E + 3] = e
+        cols = (set() if parent < 0 else set(cols_of[parent])) | _joint_columns(j, n)
+        cols = sorted(c for c in cols if active[c])
+        cols_of.append(cols)
+        bi[k, COL0], bi[k, NCOL] = len(ipool), len(cols)
+        ipool.extend(cols)
+        if f is None:
+            has_inertia = b.mass != 0.0 or np.any(b.inertia)
+            bi[k, KIND] = RIGID if (has_inertia and cols) else SKIP
+            bf[k, MASS] = b.mass
+            bf[k, CM:CM + 3] = np.asarray(b.cm, float)
+            bf[k, INERTIA:INERTIA + 9] = np.asarray(b.inertia, float).ravel()
+            continue
+        ne = len(f.idx)
+        N = len(f.m)
+        bi[k, NODE0], bi[k, NNODE], bi[k, NE] = n_nodes, N, ne
+        node_start[b.name] = (n_nodes, N)
+        n_nodes += N
+        flex_nodes.append((k, f))
+        bf[k, AXIS:AXIS + 3] = f.axis
+        bi[k, E0] = len(ipool)
+        ipool.extend(int(i) for i in f.idx)
+        has_jp = f.Jp is not None and bool(np.any(f.Jp))
+        bi[k, HAS_JP] = has_jp
+        if ne == 0:
+            # rigid equivalent of the node sums (A2-A7 at q_e = 0): exact
+            m = f.mass
+            c = (f.m @ f.s0) / m if m > 0 else np.zeros(3)
+            d = f.s0 - c
+            I = (f.m @ np.einsum("ki,ki->k", d, d)) * np.eye(3) - (d * f.m[:, None]).T @ d
+            bf[k, MASS] = m
+            bf[k, CM:CM + 3] = c
+            bf[k, INERTIA:INERTIA + 9] = I.ravel()
+            if has_jp:
+                bf[k, POLAR:POLAR + 9] = (float(f.Jp.sum()) * np.outer(f.axis, f.axis)).ravel()
+            bi[k, KIND] = RIGID if cols else SKIP
+        else:
+            bi[k, KIND] = FLEX
+            bi[k, HAS_S] = f.S is not None
+            bi[k, HAS_ETA] = f.eta is not None
+    s0 = np.zeros((max(n_nodes, 1), 3))
+    nm = np.zeros(max(n_nodes, 1))
+    Jp = np.zeros(max(n_nodes, 1))
+    fpool = [np.zeros(1)]          # per flexible body, contiguous: Phi (N,3,ne), S (N,ne,ne), eta (N,ne), K, D
+    size = 1
+    for k, f in flex_nodes:
+        a, N, ne = bi[k, NODE0], bi[k, NNODE], bi[k, NE]
+        s0[a:a + N] = f.s0
+        nm[a:a + N] = f.m
+        if f.Jp is not None:
+            Jp[a:a + N] = f.Jp
+        if ne == 0:
+            continue
+        blocks = [(PHI0, f.Phi), (S0, f.S), (ETA0, f.eta), (KD0, np.stack([f.K, f.D]))]
+        for col, arr in blocks:
+            if arr is None:
+                continue
+            bi[k, col] = size
+            fpool.append(np.ascontiguousarray(arr, float).ravel())
+            size += fpool[-1].size
+    _lump_rigid_subtrees(eq, bi, bf)
+    nrot = max(len(rot_axis), 1)
+    n_max = max([bi[k, NNODE] for k, _ in flex_nodes] + [1])
+    nrot = max(len(rot_axis), 1)
+    rc = np.zeros((nrot, n))
+    if rot_c:
+        rc[:len(rot_c)] = np.array(rot_c)
+    data = (bi, bf, np.array(ipool + [0], np.int64), np.array(rot_axis + [0], np.int64), rc,
+            np.array(rot_off + [0.0]), A, shG, s0, nm, Jp, np.concatenate(fpool), active.copy())
+    work = _work_arrays(nb, n, ne_max, n_max)
+    return Packed(data, work, n, nb, node_start)
+
+
+def _constant_pose(joint):
+    """(offset, rotation) of a joint that depends on no coordinate, else None."""
+    if joint.has_A or joint.short is not None or any(np.any(c != 0.0) for _, c, _ in joint.rotations):
+        return None
+    Rc = joint.R0.copy()
+    for axis, _, off in joint.rotations:
+        c, s = np.cos(off), np.sin(off)
+        i1, i2 = ((1, 2), (2, 0), (0, 1))[axis]
+        Rot = np.eye(3)
+        Rot[i1, i1], Rot[i1, i2], Rot[i2, i1], Rot[i2, i2] = c, -s, s, c
+        Rc = Rc @ Rot
+    return joint.offset.copy(), Rc
+
+
+def _lump_rigid_subtrees(eq, bi, bf):
+    """Lump every rigid body attached by a constant joint to a rigid ancestor
+    (e.g. rigid blades on the hub) into that ancestor: same total mass, centre
+    of mass, inertia tensor and polar tensor (exact). The lumped body keeps
+    its kinematics only for its node forces (kind LUMPED)."""
+    nb = len(eq.bodies)
+    target = list(range(nb))
+    pose = [(np.zeros(3), np.eye(3)) for _ in range(nb)]       # in the target frame
+    flexible = [f is not None and len(f.idx) > 0 for _, _, f in eq.bodies]
+    # accumulate mass, first moment and inertia about the origin of each target
+    mass = bf[:, MASS].copy()
+    first = mass[:, None] * bf[:, CM:CM + 3]
+    second = np.zeros((nb, 3, 3))
+    for k in range(nb):
+        c = bf[k, CM:CM + 3]
+        second[k] = bf[k, INERTIA:INERTIA + 9].reshape(3, 3) + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
+    changed = set()
+    for k, (_, j, _) in enumerate(eq.bodies):
+        p = bi[k, PARENT]
+        cp = _constant_pose(j)
+        if bi[k, KIND] != RIGID or p < 0 or flexible[p] or cp is None:
+            continue
+        t = target[p]
+        rp, Rp = pose[p]
+        r, R = rp + Rp @ cp[0], Rp @ cp[1]
+        target[k], pose[k] = t, (r, R)
+        c = r + R @ bf[k, CM:CM + 3]
+        I = R @ bf[k, INERTIA:INERTIA + 9].reshape(3, 3) @ R.T
+        mass[t] += mass[k]
+        first[t] += mass[k] * c
+        second[t] += I + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
+        P = bf[t, POLAR:POLAR + 9].reshape(3, 3) + R @ bf[k, POLAR:POLAR + 9].reshape(3, 3) @ R.T
+        bf[t, POLAR:POLAR + 9] = P.ravel()
+        bi[t, HAS_JP] = bi[t, HAS_JP] or bi[k, HAS_JP]
+        bi[t, KIND] = RIGID
+        bi[k, KIND] = LUMPED
+        changed.add(t)
+    for t in changed:
+        c = first[t] / mass[t] if mass[t] > 0 else np.zeros(3)
+        bf[t, MASS] = mass[t]
+        bf[t, CM:CM + 3] = c
+        bf[t, INERTIA:INERTIA + 9] = (second[t] - mass[t] * (c @ c * np.eye(3) - np.outer(c, c))).ravel()
+
+
+def _work_arrays(nb, n, ne_max, n_max):
+    """Arrays the kernels write: body frames (slot nb = ground) and scratch."""
+    ne1 = max(ne_max, 1)
+    R = np.zeros((nb + 1, 3, 3))
+    R[nb] = np.eye(3)
+    vec = np.zeros((nb + 1, 5, 3))                    # r, v, w, a_bias, alpha_bias
+    Jv = np.zeros((nb + 1, 3, n))
+    Jw = np.zeros((nb + 1, 3, n))
+    m3n = np.zeros((2, 3, n))                         # J_w,rel, J_rho of a joint
+    m6n = np.zeros((2, 6 + ne_max, n))                # [J_v; J_w] on a body's columns, Mb times it
+    e_scr = np.zeros((3, ne1))                        # q_e, qd_e, elastic forces
+    B3 = np.zeros((2, 3, ne1))                        # C_t^T, C_r^T (body frame)
+    Mb = np.zeros((6 + ne_max, 6 + ne_max))           # generalised body mass
+    fy = np.zeros(6 + ne_max)                         # generalised body force
+    v_scr = np.zeros((16, 3))
+    m_scr = np.zeros((2, 3, 3))
+    nodes = np.zeros((6, 3 * n_max * (ne_max + 1)))   # B_loc, [m B_loc, load], S q, s, p_dot, load
+    G = np.zeros(18 * n_max)                          # [I; [s_k~]] per node
+    return (R, vec, Jv, Jw, m3n, m6n, e_scr, B3, Mb, fy, v_scr, m_scr, nodes, G)

@@ -1,0 +1,303 @@
+"""`Scene`: what to simulate — which DOFs are free, fixed or prescribed, which
+effects act, initial conditions, time span, and the default mode set.
+
+A scene is a TOML file or an OpenFAST ElastoDyn main file (.dat, or an .fst
+naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
+
+    name = "land_3dof"
+    turbine = "nrel5mw"              # built-in name or ElastoDyn deck path (relative to this file)
+    tmax = 60.0                      # s
+    dt = 0.01                        # output step, s
+    [modes]                          # default mode set (search varies these fields only)
+    tower_fa = { family = "elastodyn", count = 1 }
+    tower_ss = { family = "elastodyn", count = 1 }
+    [dofs]
+    free = ["GeAz"]                  # rigid DOFs: GeAz, DrTr, Yaw, PtfmSurge, PtfmPitch
+    fixed = { DrTr = 0.0 }           # value in m or deg
+    constant_speed = { GeAz = 12.1 } # prescribed constant rotor speed, rpm
+    [initial]                        # ElastoDyn names: TTDspFA TTDspSS [m], RotSpeed [rpm],
+    TTDspFA = 1.0                    # Azimuth NacYaw PtfmPitch BlPitch [deg], OoPDefl IPDefl PtfmSurge [m]
+    equilibrium = false              # true: start the elastic DOFs at their static equilibrium
+    [effects]                        # each effect is `true`, `false` or a table of its options
+    gravity = true                   # (see modesel/model/effects/ for every effect)
+    geometric_stiffening = true
+    damping = true                   # on unless false; { model = "stiffness_proportional" }
+    [effects.wind]                   # wind, pitch, drivetrain, generator, aero, tower_drag
+    speed = 11.4
+    [solver]
+    method = "auto"                  # auto | RK45 | DOP853 | Radau | BDF | LSODA
+    rtol = 1e-8
+    stability_check = true           # refuse statically unstable configurations (api.simulate)
+"""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from modesel.candidates.base import check_field_modes
+from modesel.errors import ModeselError, unknown_name
+from modesel.modeset import FIELDS, FieldModes, ModeSet
+from modesel.model.effects import KEYS as EFFECT_KEYS
+from modesel.model.effects import validate as validate_effects
+
+TOP_KEYS = ("name", "description", "turbine", "tmax", "dt", "modes", "dofs", "initial", "effects",
+            "solver", "outputs", "overrides")
+# scene-level changes to the turbine: key -> (Turbine attribute, unit conversion to SI)
+OVERRIDES = {
+    "precone_deg": ("precone", "deg3"),
+    "shaft_tilt_deg": ("shaft_tilt", "deg"),
+    "tower_base_height": ("tower_base_height", None),
+    "platform_mass": ("platform_mass", None),
+    "platform_inertia": ("platform_inertia", "vec3"),
+    "platform_cm_z": ("platform_cm", "z"),
+    "platform_ref_z": ("platform_ref_z", None),
+    "generator_inertia": ("generator_inertia", None),
+    "hub_radius": ("hub_radius", "hub"),
+    "nacelle_yaw_inertia": ("nacelle_yaw_inertia", None),
+    "nacelle_mass": ("nacelle_mass", None),
+}
+NON_NEGATIVE_OVERRIDES = ("platform_mass", "platform_inertia", "generator_inertia", "hub_radius",
+                          "nacelle_yaw_inertia", "nacelle_mass")
+DOF_KEYS = ("free", "fixed", "constant_speed")
+RIGID = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
+INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
+                "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
+SOLVER_KEYS = ("method", "rtol", "atol", "max_step", "stability_check")
+SOLVER_METHODS = ("auto", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+ANGLE_KEYS = ("Azimuth", "NacYaw", "PtfmPitch", "BlPitch", "TTDspTwst")
+
+
+@dataclass
+class Scene:
+    """A simulation case. Angles in `initial` are rad, RotSpeed rad/s, lengths m."""
+
+    name: str
+    turbine: object
+    tmax: float = 10.0
+    dt: float = 0.01
+    modes: ModeSet = field(default_factory=ModeSet)
+    free: tuple = ()
+    fixed: dict = field(default_factory=dict)
+    constant_speed: dict = field(default_factory=dict)   # dof -> rad/s
+    initial: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
+    solver: dict = field(default_factory=dict)
+    path: str | None = None
+
+    @property
+    def fields(self) -> tuple:
+        """Active flexible fields (those with modes)."""
+        return tuple(f for f in FIELDS if f in self.modes)
+
+    @property
+    def default_modeset(self) -> ModeSet:
+        return self.modes
+
+    def effect(self, name: str, default=True):
+        return self.effects.get(name, default)
+
+
+def _number(value, file, fld, positive=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ModeselError(f"must be a number, got {value!r}", file=file, field=fld)
+    value = float(value)
+    if not np.isfinite(value) or (positive and value <= 0):
+        raise ModeselError(f"must be a {'positive ' if positive else ''}finite number, got {value!r}",
+                           file=file, field=fld)
+    return value
+
+
+def _check_keys(table, allowed, file, where):
+    if not isinstance(table, dict):
+        raise ModeselError("must be a table", file=file, field=where)
+    for k in table:
+        if k not in allowed:
+            raise ModeselError(f"unknown key '{k}'" + _dym(k, allowed), file=file,
+                               field=f"{where}.{k}" if where else k)
+
+
+def _dym(k, allowed):
+    from modesel.errors import did_you_mean
+    return did_you_mean(k, allowed)
+
+
+def _initial_si(name, value):
+    if name in ANGLE_KEYS:
+        return np.deg2rad(value)
+    if name == "RotSpeed":
+        return value * np.pi / 30.0
+    return value
+
+
+def load_scene(path) -> Scene:
+    """Scene from a TOML file or an ElastoDyn/OpenFAST main file."""
+    path = Path(path)
+    if not path.exists():
+        raise ModeselError("scene file not found", file=str(path))
+    if not path.is_file():
+        raise ModeselError("not a file (give a TOML scene, an ElastoDyn .dat or an .fst)", file=str(path))
+    if path.suffix.lower() in (".dat", ".fst"):
+        return scene_from_elastodyn(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ModeselError(f"malformed TOML: {exc}", file=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModeselError(f"cannot read the scene: {exc}", file=str(path)) from None
+    return scene_from_dict(data, path)
+
+
+def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
+    from modesel.turbine.elastodyn import load_turbine
+    file = None if path is None else str(path)
+    _check_keys(data, TOP_KEYS, file, "")
+    if "turbine" not in data:
+        raise ModeselError("missing key 'turbine' (built-in name or ElastoDyn deck path)", file=file,
+                           field="turbine")
+    tname = data["turbine"]
+    if not isinstance(tname, str):
+        raise ModeselError("must be a string", file=file, field="turbine")
+    if path is not None and tname != "nrel5mw" and not Path(tname).is_absolute():
+        tname = str((path.parent / tname).resolve())
+    turbine = load_turbine(tname)
+    tmax = _number(data.get("tmax", 10.0), file, "tmax", positive=True)
+    dt = _number(data.get("dt", 0.01), file, "dt", positive=True)
+    modes_tbl = data.get("modes", {})
+    _check_keys(modes_tbl, FIELDS, file, "modes")
+    try:
+        modes = ModeSet.from_dict({"fields": modes_tbl}, file=file)
+    except ModeselError as exc:
+        sub = (exc.field or "").removeprefix("fields").lstrip(".")
+        raise ModeselError(exc.message, file=file, field=f"modes.{sub}".rstrip(".")) from None
+    for fld, fm in modes.fields.items():
+        check_field_modes(fld, fm.family, fm.count, fm.params, file=file, where=f"modes.{fld}")
+    dofs = data.get("dofs", {})
+    _check_keys(dofs, DOF_KEYS, file, "dofs")
+    free = dofs.get("free", [])
+    if not isinstance(free, list) or not all(isinstance(d, str) for d in free):
+        raise ModeselError(f"must be a list of DOF names, e.g. [\"GeAz\"], got {free!r}", file=file,
+                           field="dofs.free")
+    free = tuple(free)
+    for d in free:
+        if d not in RIGID:
+            raise unknown_name("rigid DOF", d, RIGID, file=file, field="dofs.free")
+    for key in ("fixed", "constant_speed"):
+        if not isinstance(dofs.get(key, {}), dict):
+            raise ModeselError(f"must be a table {{DOF = value}}, got {dofs[key]!r}", file=file,
+                               field=f"dofs.{key}")
+    fixed = {}
+    for d, v in dofs.get("fixed", {}).items():
+        if d not in RIGID:
+            raise unknown_name("rigid DOF", d, RIGID, file=file, field="dofs.fixed")
+        v = _number(v, file, f"dofs.fixed.{d}")
+        fixed[d] = np.deg2rad(v) if d in ("GeAz", "DrTr", "Yaw", "PtfmPitch") else v
+    speed = {}
+    for d, v in dofs.get("constant_speed", {}).items():
+        if d != "GeAz":
+            raise ModeselError("only GeAz can have a constant speed", file=file, field=f"dofs.constant_speed.{d}")
+        speed[d] = _number(v, file, f"dofs.constant_speed.{d}") * np.pi / 30.0
+    initial = {}
+    init_tbl = data.get("initial", {})
+    _check_keys(init_tbl, INITIAL_KEYS, file, "initial")
+    for k, v in init_tbl.items():
+        if k == "equilibrium":
+            if not isinstance(v, bool):
+                raise ModeselError(f"must be true or false, got {v!r}", file=file, field="initial.equilibrium")
+            initial[k] = v
+            continue
+        initial[k] = _initial_si(k, _number(v, file, f"initial.{k}"))
+    effects = data.get("effects", {})
+    _check_keys(effects, EFFECT_KEYS, file, "effects")
+    validate_effects(effects, file, None if path is None else path.parent)
+    solver = data.get("solver", {})
+    _check_keys(solver, SOLVER_KEYS, file, "solver")
+    solver = _solver(solver, file)
+    over = data.get("overrides", {})
+    _check_keys(over, OVERRIDES, file, "overrides")
+    if over:
+        turbine = apply_overrides(turbine, over, file)
+    return Scene(str(data.get("name", path.stem if path else "scene")), turbine, tmax, dt, modes, free, fixed,
+                 speed, initial, dict(effects), dict(solver), file)
+
+
+def _solver(table: dict, file) -> dict:
+    """[solver] with checked values: method name, positive tolerances and step."""
+    out = dict(table)
+    if "method" in out:
+        if not isinstance(out["method"], str) or out["method"] not in SOLVER_METHODS:
+            raise unknown_name("solver method", out["method"], SOLVER_METHODS, file=file, field="solver.method")
+    for key in ("rtol", "atol", "max_step"):
+        if key in out:
+            out[key] = _number(out[key], file, f"solver.{key}", positive=True)
+    if "stability_check" in out and not isinstance(out["stability_check"], bool):
+        raise ModeselError(f"must be true or false, got {out['stability_check']!r}", file=file,
+                           field="solver.stability_check")
+    return out
+
+
+def scene_from_elastodyn(path: Path) -> Scene:
+    """ElastoDyn main file (or .fst) as a scene: DOF flags, initial conditions,
+    masses and geometry as OpenFAST uses them; the deck's polynomials are the
+    default mode set. TMax/DT_Out come from the .fst when given (else 10 s /
+    0.01 s). A rotor without GenDOF spins at the constant RotSpeed."""
+    from modesel.turbine.elastodyn import read_elastodyn
+    turbine = read_elastodyn(path)
+    flags = turbine.dofs
+    fields = {}
+    if flags.get("TwFADOF1"):
+        fields["tower_fa"] = FieldModes("elastodyn", 2 if flags.get("TwFADOF2") else 1)
+    if flags.get("TwSSDOF1"):
+        fields["tower_ss"] = FieldModes("elastodyn", 2 if flags.get("TwSSDOF2") else 1)
+    if flags.get("FlapDOF1"):
+        fields["blade_flap"] = FieldModes("elastodyn", 2 if flags.get("FlapDOF2") else 1)
+    if flags.get("EdgeDOF"):
+        fields["blade_edge"] = FieldModes("elastodyn", 1)
+    free, speed, fixed = [], {}, {}
+    if flags.get("GenDOF"):
+        free.append("GeAz")
+    else:
+        speed["GeAz"] = turbine.initial.get("RotSpeed", 0.0)
+    if flags.get("DrTrDOF"):
+        free.append("DrTr")
+    if flags.get("YawDOF"):
+        free.append("Yaw")
+    for flag, dof in (("PtfmSgDOF", "PtfmSurge"), ("PtfmPDOF", "PtfmPitch")):
+        if flags.get(flag):
+            free.append(dof)
+    initial = {k: v for k, v in turbine.initial.items() if k in INITIAL_KEYS}
+    for dof, key in (("Yaw", "NacYaw"), ("PtfmSurge", "PtfmSurge"), ("PtfmPitch", "PtfmPitch")):
+        if dof not in free and initial.get(key):
+            fixed[dof] = initial[key]
+    sim = getattr(turbine, "simulation", {}) or {}
+    return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
+                 ModeSet(fields), tuple(free), fixed, speed, initial,
+                 {"gravity": True, "geometric_stiffening": True, "damping": True}, {}, str(path))
+
+
+def apply_overrides(turbine, over: dict, file=None):
+    """Copy of `turbine` with scene overrides (see OVERRIDES) in SI units."""
+    import copy
+    t = copy.deepcopy(turbine)
+    for key, value in over.items():
+        attr, unit = OVERRIDES[key]
+        if unit == "vec3":
+            if not isinstance(value, list) or len(value) != 3:
+                raise ModeselError("must be a list of 3 numbers", file=file, field=f"overrides.{key}")
+            value = tuple(_number(v, file, f"overrides.{key}") for v in value)
+        else:
+            value = _number(value, file, f"overrides.{key}")
+        if key in NON_NEGATIVE_OVERRIDES and min(np.atleast_1d(value)) < 0:
+            raise ModeselError(f"must be >= 0, got {value!r}", file=file, field=f"overrides.{key}")
+        if unit == "deg":
+            value = np.deg2rad(value)
+        elif unit == "deg3":
+            value = tuple([np.deg2rad(value)] * t.num_blades)
+        elif unit == "z":
+            value = (0.0, 0.0, value)
+        elif unit == "hub":            # the blade root moves with the hub radius
+            t.blade.root_offset = value
+        setattr(t, attr, value)
+    return t

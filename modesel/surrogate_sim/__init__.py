@@ -1,1 +1,0 @@
-"""Reduced multibody simulation: turbine description, bodies, scenes, integration."""

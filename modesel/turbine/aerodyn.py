@@ -1,0 +1,242 @@
+"""Read an AeroDyn input deck: main file, blade file(s), airfoil polars, tower table.
+
+The blade file and the airfoil tables are read with openfast-io
+(`read_AeroDynBlade`, `read_AeroDynPolar`). The main file is first given to
+openfast-io's `read_AeroDyn`; that reader is positional and follows the
+AeroDyn layout of OpenFAST 4 (it expects e.g. `BEM_Mod`, `SkewMomCorr`,
+`SectAvg`, `AoA34`, `NacArea` lines). Decks in the older AeroDyn v15 layout
+(OpenFAST 3, like the bundled NREL 5-MW `NREL5MW_AD.dat`) lack those lines and
+make it fail (or misread earlier values before failing). In that case the few
+fields used here are looked up by their keyword (second token of the line),
+which is layout independent, and the fallback is recorded in `notes`.
+Values "default" take AeroDyn's documented defaults (`DEFAULTS`).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from modesel.errors import ModeselError
+from modesel.aero.airfoils import PolarSet, read_polars
+from modesel.aero.blade import AeroBlade
+from modesel.aero.tower_drag import TowerDrag
+
+#: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
+#: OpenFAST glue code's AirDens 1.225 kg/m^3, KinVisc 1.464e-5 m^2/s,
+#: SpdSound 335 m/s) and the Pitt/Peters constant 15 pi / 32.
+DEFAULTS = {"AirDens": 1.225, "KinVisc": 1.464e-5, "SpdSound": 335.0,
+            "SkewModFactor": 15.0 * np.pi / 32.0}
+
+
+@dataclass
+class AeroDynDeck:
+    """What the reduced model uses from an AeroDyn deck (SI units).
+
+    blades : one `AeroBlade` per blade file (identical files are read once
+        and shared).
+    air_density [kg/m^3], kinematic_viscosity [m^2/s], speed_of_sound [m/s].
+    tip_loss, hub_loss, tangential_induction, axial_drag, tangential_drag :
+        AeroDyn flags TipLoss, HubLoss, TanInd, AIDrag, TIDrag.
+    skew_correction : apply the Pitt/Peters skewed-wake correction (v15:
+        SkewMod = 2; OpenFAST 4: Skew_Mod = 1 with SkewRedistr_Mod = 1).
+    skew_factor : SkewModFactor (v15) / SkewRedistrFactor (OpenFAST 4).
+    tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd, or None if absent.
+    tower_aero : TwrAero flag (apply tower drag).
+    notes : one sentence per documented default or fallback applied.
+    """
+
+    blades: list
+    air_density: float = DEFAULTS["AirDens"]
+    kinematic_viscosity: float = DEFAULTS["KinVisc"]
+    speed_of_sound: float = DEFAULTS["SpdSound"]
+    tip_loss: bool = True
+    hub_loss: bool = True
+    tangential_induction: bool = True
+    axial_drag: bool = False
+    tangential_drag: bool = False
+    skew_correction: bool = True
+    skew_factor: float = DEFAULTS["SkewModFactor"]
+    tower: TowerDrag | None = None
+    tower_aero: bool = False
+    source: str | None = None
+    notes: tuple = field(default_factory=tuple)
+
+    @property
+    def blade(self) -> AeroBlade:
+        """The first blade (all blades of the bundled decks are identical)."""
+        return self.blades[0]
+
+
+def _openfast_io_main(path: str) -> dict:
+    """Main-file fields via openfast-io's positional reader; raises on mismatch."""
+    from openfast_io.FAST_reader import InputReader_OpenFAST
+
+    reader = InputReader_OpenFAST()
+    reader.FAST_directory = os.path.dirname(path)
+    reader.fst_vt["Fst"]["AeroFile"] = os.path.basename(path)
+    reader.fst_vt["Fst"]["AeroFile_path"] = ""
+    reader.fst_vt["ElastoDyn"]["NumBl"] = 3
+    reader.read_AeroDyn()
+    ad = reader.fst_vt["AeroDyn"]
+    out = {key: ad[key] for key in ("AirDens", "KinVisc", "SpdSound", "TipLoss", "HubLoss",
+                                    "TanInd", "AIDrag", "TIDrag", "TwrAero", "NumAFfiles",
+                                    "InCol_Alfa", "InCol_Cl", "InCol_Cd", "InCol_Cm")}
+    out["SkewCorr"] = ad.get("Skew_Mod") == 1 and ad.get("SkewRedistr_Mod") == 1
+    out["SkewModFactor"] = ad.get("SkewRedistrFactor", "default")
+    out["AFNames"] = list(ad["AFNames"])
+    out["ADBlFile"] = [ad[f"ADBlFile{i}"] for i in (1, 2, 3)]
+    out["tower"] = np.array([ad["TwrElev"], ad["TwrDiam"], ad["TwrCd"]], float).T
+    # sanity: a positional misread shows up as non-numeric physics values
+    for key in ("AirDens", "KinVisc", "SpdSound"):
+        value = out[key]
+        if not (isinstance(value, float) or str(value).strip('"').lower() == "default"):
+            raise ValueError(f"{key} read as {value!r}")
+    return out
+
+
+def _keyword_lines(path: str) -> list:
+    with open(path) as f:
+        return [line.split() for line in f]
+
+
+def _by_keyword(lines, key, path):
+    for i, tokens in enumerate(lines):
+        if len(tokens) >= 2 and tokens[1] == key:
+            return i, tokens[0]
+    raise ModeselError("keyword not found in AeroDyn file", file=path, field=key)
+
+
+def _keyword_main(path: str) -> dict:
+    """Main-file fields looked up by keyword (layout independent)."""
+    lines = _keyword_lines(path)
+    out = {}
+    for key in ("AirDens", "KinVisc", "SpdSound", "TipLoss", "HubLoss", "TanInd", "AIDrag",
+                "TIDrag", "TwrAero", "NumAFfiles", "InCol_Alfa", "InCol_Cl", "InCol_Cd",
+                "InCol_Cm"):
+        out[key] = _by_keyword(lines, key, path)[1]
+    found = {}
+    for key in ("SkewMod", "Skew_Mod", "SkewRedistr_Mod", "SkewModFactor", "SkewRedistrFactor"):
+        try:
+            found[key] = _by_keyword(lines, key, path)[1]
+        except ModeselError:
+            pass
+    if "SkewMod" in found:  # AeroDyn v15 layout: 2 = Pitt/Peters
+        out["SkewCorr"] = found["SkewMod"] == "2"
+    else:  # OpenFAST 4 layout
+        out["SkewCorr"] = found.get("Skew_Mod") == "1" and found.get("SkewRedistr_Mod", "1") == "1"
+    out["SkewModFactor"] = found.get("SkewModFactor", found.get("SkewRedistrFactor", "default"))
+    n_af = int(out["NumAFfiles"])
+    first, _ = _by_keyword(lines, "AFNames", path)
+    out["AFNames"] = [lines[first + k][0].strip('"\'') for k in range(n_af)]
+    out["ADBlFile"] = [_by_keyword(lines, f"ADBlFile({i})", path)[1].strip('"\'')
+                       for i in (1, 2, 3)]
+    try:
+        row, n_twr = _by_keyword(lines, "NumTwrNds", path)
+        n_twr = int(n_twr)
+        # two header lines (names, units) follow NumTwrNds
+        out["tower"] = np.array([[float(v) for v in lines[row + 3 + k][:3]]
+                                 for k in range(n_twr)])
+    except ModeselError:
+        out["tower"] = None
+    return out
+
+
+def _flag(value, path, key) -> bool:
+    if isinstance(value, bool):
+        return value
+    text = str(value).strip('"').lower()
+    if text in ("true", "t"):
+        return True
+    if text in ("false", "f"):
+        return False
+    raise ModeselError(f"expected True/False, got {value!r}", file=path, field=key)
+
+
+def _number(value, path, key, notes):
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    text = str(value).strip('"')
+    if text.lower() == "default":
+        notes.append(f"{key} 'default' taken as {DEFAULTS[key]:.6g} (AeroDyn/OpenFAST default).")
+        return DEFAULTS[key]
+    try:
+        return float(text)
+    except ValueError:
+        raise ModeselError(f"expected a number or 'default', got {value!r}",
+                           file=path, field=key) from None
+
+
+def read_aerodyn_blade(path: str, polars: PolarSet) -> AeroBlade:
+    """Read an AeroDyn blade file with openfast-io and attach `polars`."""
+    from openfast_io.FAST_reader import InputReader_OpenFAST
+
+    if not os.path.isfile(path):
+        raise ModeselError("AeroDyn blade file not found", file=path, field="ADBlFile")
+    reader = InputReader_OpenFAST()
+    try:
+        reader.read_AeroDynBlade(path, 0)
+        data = reader.fst_vt["AeroDynBlade"][0]
+        span = np.asarray(data["BlSpn"], float)
+        chord = np.asarray(data["BlChord"], float)
+        twist = np.radians(np.asarray(data["BlTwist"], float))
+        afid = np.asarray(data["BlAFID"], float)
+    except Exception as exc:
+        raise ModeselError(f"cannot read AeroDyn blade file ({type(exc).__name__}: {exc})",
+                           file=path) from exc
+    if np.any(afid != np.round(afid)) or np.any(afid < 1) or np.any(afid > len(polars)):
+        raise ModeselError(f"BlAFID must be integers in 1..{len(polars)}", file=path,
+                           field="BlAFID")
+    return AeroBlade(span=span, chord=chord, twist=twist, airfoil=afid.astype(int) - 1,
+                     polars=polars, source=path)
+
+
+def read_aerodyn(path) -> AeroDynDeck:
+    """Read an AeroDyn main file and everything it references (see module doc)."""
+    path = os.path.abspath(str(path))
+    if not os.path.isfile(path):
+        raise ModeselError("AeroDyn file not found", file=path)
+    notes = []
+    try:
+        main = _openfast_io_main(path)
+    except Exception as exc:  # positional layout mismatch
+        notes.append("openfast-io read_AeroDyn does not match this file's layout "
+                     f"({type(exc).__name__}: {exc}); fields were looked up by keyword.")
+        main = _keyword_main(path)
+    folder = os.path.dirname(path)
+    columns = [int(main[k]) for k in ("InCol_Alfa", "InCol_Cl", "InCol_Cd", "InCol_Cm")]
+    af_paths = [os.path.join(folder, p) for p in main["AFNames"]]
+    polars = read_polars(af_paths, columns)
+    blade_files = [os.path.join(folder, p) for p in main["ADBlFile"]]
+    blades, seen = [], {}
+    for bf in blade_files:
+        key = os.path.abspath(bf)
+        if key not in seen:
+            seen[key] = read_aerodyn_blade(key, polars)
+        blades.append(seen[key])
+    tower = None
+    table = main.get("tower")
+    if table is not None and len(table):
+        tower = TowerDrag(elevation=table[:, 0], diameter=table[:, 1], drag_coefficient=table[:, 2],
+                          source=path)
+    deck = AeroDynDeck(
+        blades=blades,
+        air_density=_number(main["AirDens"], path, "AirDens", notes),
+        kinematic_viscosity=_number(main["KinVisc"], path, "KinVisc", notes),
+        speed_of_sound=_number(main["SpdSound"], path, "SpdSound", notes),
+        tip_loss=_flag(main["TipLoss"], path, "TipLoss"),
+        hub_loss=_flag(main["HubLoss"], path, "HubLoss"),
+        tangential_induction=_flag(main["TanInd"], path, "TanInd"),
+        axial_drag=_flag(main["AIDrag"], path, "AIDrag"),
+        tangential_drag=_flag(main["TIDrag"], path, "TIDrag"),
+        skew_correction=bool(main["SkewCorr"]),
+        skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes),
+        tower=tower,
+        tower_aero=_flag(main["TwrAero"], path, "TwrAero"),
+        source=path,
+        notes=tuple(notes),
+    )
+    if deck.air_density <= 0:
+        raise ModeselError("air density must be > 0", file=path, field="AirDens")
+    return deck
