@@ -20,6 +20,58 @@ from modesel.errors import ModeselError
 
 SUFFIXES = (".out", ".outb")
 
+# OpenFAST binary output layout (OpenFAST's WrBinFAST; openfast_io's load_binary_output)
+_WITH_TIME, _WITHOUT_TIME, _NO_COMPRESS, _CHANLEN_IN = 1, 2, 3, 4
+MAX_CHANNELS = 100_000          # sanity bound on the header's channel count
+MAX_NAME_LENGTH = 1024          # sanity bound on a channel name's length [characters]
+
+
+def check_binary_header(path: Path) -> tuple[int, int]:
+    """Validate an .outb header against the file size before anything is
+    allocated; returns (channels, time steps). A file whose header promises
+    more (or fewer) bytes than it holds is a one-line user error."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(2 + 2 + 4 + 4)
+        if len(head) < 10:
+            raise ModeselError(f"truncated OpenFAST binary header ({size} bytes)", file=str(path))
+        file_id = int(np.frombuffer(head[:2], "<i2")[0])
+        if file_id not in (_WITH_TIME, _WITHOUT_TIME, _NO_COMPRESS, _CHANLEN_IN):
+            raise ModeselError(f"not an OpenFAST binary output (file format id {file_id}, expected 1-4)",
+                               file=str(path))
+        offset = 2
+        name_length = 10
+        if file_id == _CHANLEN_IN:
+            name_length = int(np.frombuffer(head[2:4], "<i2")[0])
+            offset = 4
+        fh.seek(offset)
+        counts = fh.read(8)
+        if len(counts) < 8:
+            raise ModeselError("truncated OpenFAST binary header", file=str(path))
+        channels, steps = (int(v) for v in np.frombuffer(counts, "<i4"))
+        if not 0 < channels <= MAX_CHANNELS or steps <= 0 or not 0 < name_length <= MAX_NAME_LENGTH:
+            raise ModeselError(f"corrupt OpenFAST binary header: {channels} channels, {steps} time steps, "
+                               f"channel names of {name_length} characters", file=str(path))
+        offset += 8 + 16                                   # counts, then two float64 time values
+        if file_id != _NO_COMPRESS:
+            offset += 2 * 4 * channels                     # float32 channel scales and offsets
+        fh.seek(offset)
+        raw = fh.read(4)
+        if len(raw) < 4:
+            raise ModeselError("truncated OpenFAST binary header", file=str(path))
+        description = int(np.frombuffer(raw, "<i4")[0])
+        if not 0 <= description <= size:
+            raise ModeselError(f"corrupt OpenFAST binary header: description of {description} bytes",
+                               file=str(path))
+    expected = offset + 4 + description + 2 * (channels + 1) * name_length
+    if file_id == _WITH_TIME:
+        expected += 4 * steps
+    expected += steps * channels * (8 if file_id == _NO_COMPRESS else 2)
+    if expected != size:
+        raise ModeselError(f"OpenFAST binary output is {size} bytes but its header ({channels} channels, "
+                           f"{steps} time steps) needs {expected} bytes: truncated or corrupt", file=str(path))
+    return channels, steps
+
 
 def read_openfast_output(path) -> pd.DataFrame:
     """Read an OpenFAST .out/.outb file; columns are channel names, units in attrs."""
@@ -28,6 +80,8 @@ def read_openfast_output(path) -> pd.DataFrame:
         raise ModeselError("OpenFAST output file not found", file=str(path))
     if path.suffix.lower() not in SUFFIXES:
         raise ModeselError(f"not an OpenFAST output file (expected {' or '.join(SUFFIXES)})", file=str(path))
+    if path.suffix.lower() == ".outb":
+        check_binary_header(path)
     try:
         output = FASTOutputFile(str(path))
     except Exception as exc:  # openfast_io raises bare ValueError/struct.error/... on bad files
