@@ -72,9 +72,9 @@ def test_deck_read_with_documented_fallback(deck):
     assert len(blade.polars) == 8
     assert len(deck.blades) == 3 and deck.blades[1] is deck.blades[0]
     assert deck.air_density == pytest.approx(1.225)
-    assert deck.tip_loss and deck.hub_loss and deck.tangential_induction
-    assert not deck.axial_drag and not deck.tangential_drag
-    assert deck.skew_correction and deck.skew_factor == pytest.approx(15 * np.pi / 32)
+    assert deck.bem.tip_loss and deck.bem.hub_loss and deck.bem.tangential_induction
+    assert not deck.bem.axial_drag and not deck.bem.tangential_drag
+    assert deck.bem.skew_correction and deck.bem.skew_factor == pytest.approx(15 * np.pi / 32)
     assert deck.tower_aero
     assert deck.tower.elevation.size == 12
     assert deck.tower.diameter[0] == pytest.approx(6.0)
