@@ -100,29 +100,17 @@ def polar_lookup(rng):
 def bem_elements(rng):
     """BemSolver.solve (numba, Chandrupatla) / the scalar reference of tests/test_aero.py
     (classic residual, brentq), both solved to round-off."""
-    from test_aero import scalar_reference
+    from test_aero import random_elements, scalar_solutions
     deck = read_aerodyn(AD_FILE)
-    n = 60
-    span = rng.uniform(3.0, 61.0, n)
-    r = 1.5 + span
-    vn = rng.uniform(4.0, 20.0, n)
-    vt = rng.uniform(3.0, 12.0, n) * vn * r / 63.0
-    pitch = np.radians(rng.uniform(-2.0, 12.0, n))
-    skew, psi = rng.uniform(0.0, 0.4, n), rng.uniform(0.0, 2 * np.pi, n)
+    span, r, vn, vt, pitch, skew, psi = random_elements(rng, 60)
     solver = BemSolver.from_blade(deck.blade, span, num_blades=3, hub_radius=1.5,
                                   air_density=deck.air_density,
                                   options=BemOptions.from_deck(deck, tolerance=1e-15))
     res = solver.solve(r, vn, vt, pitch, skew, psi)
-    rows = []
-    for i in range(n):
-        ref = scalar_reference(r[i], vn[i], vt[i], pitch[i] + solver.twist[i], solver.chord[i],
-                               deck.blade.polars.polars[solver.airfoil[i]], 3, solver.tip_radius,
-                               solver.hub_radius, deck.air_density, skew[i], psi[i])
-        if ref is not None:
-            rows.append((i, ref))
-    assert len(rows) > 0.9 * n
-    idx = [i for i, _ in rows]
-    ref = np.array([values for _, values in rows])
+    reference = scalar_solutions(deck, solver, r, vn, vt, pitch, skew, psi)
+    assert len(reference) > 0.9 * r.size
+    idx = list(reference)
+    ref = np.array(list(reference.values()))
     return [(name, ref[:, j], getattr(res, name)[idx])
             for j, name in enumerate(("a", "a_prime", "phi", "f_n", "f_t"))]
 
