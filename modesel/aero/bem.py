@@ -388,9 +388,9 @@ class BemBuffers:
     """Arrays preallocated for `BemSolver.solve_into` on one element shape.
 
     twist [rad], chord [m], offset (polar rows): the solver's static element
-    data broadcast to `shape` and flattened; theta [rad] (pitch + twist) and
-    `out` (13, n: the `ElementLoads` fields in order, then converged as 0/1)
-    are overwritten by every solve.
+    data broadcast to `shape` (C-contiguous); theta [rad] (pitch + twist,
+    `shape`) and `out` (13, n: the `ElementLoads` fields in order, then
+    converged as 0/1) are overwritten by every solve.
     """
 
     shape: tuple
@@ -443,7 +443,12 @@ class BemSolver:
         self.hub_radius = float(hub_radius)
         self.air_density = float(air_density)
         self.options = options or BemOptions()
-        self._static = {}  # element shape -> flattened (twist, chord, offset)
+        self._static = {}  # element shape -> (twist, chord, offset) broadcast to it
+        o = self.options
+        self._constants = (float(self.num_blades), self.tip_radius, self.hub_radius, self.air_density,
+                           o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag,
+                           o.tangential_drag, o.skew_correction, float(o.skew_factor),
+                           float(o.tolerance), int(o.max_iterations))
         if self.num_blades < 1:
             raise ModeselError(f"number of blades must be >= 1, got {num_blades}", field="NumBl")
         if not 0 < self.hub_radius < self.tip_radius:
@@ -473,34 +478,27 @@ class BemSolver:
         static = self._static.get(shape)
         if static is None:
             static = self._static[shape] = tuple(
-                np.ascontiguousarray(np.broadcast_to(x, shape).ravel())
-                for x in (self.twist, self.chord, self.offset))
-        size = int(np.prod(shape))
-        return BemBuffers(shape, *static, np.empty(size), np.empty((13, size)))
+                np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (self.twist, self.chord, self.offset))
+        return BemBuffers(shape, *static, np.empty(shape), np.empty((13, int(np.prod(shape)))))
 
     def solve_into(self, buffers: BemBuffers, r, v_normal, v_tangential, pitch, skew,
                    skew_azimuth) -> int:
         """Solve all elements into `buffers` (from `allocate`) without allocating.
 
         r, v_normal, v_tangential, skew, skew_azimuth : C-contiguous float
-        arrays of `buffers.shape` (inputs as in the module docstring);
-        pitch [rad] : a number or such an array. Returns the largest
-        root-solver iteration count; the loads are `buffers.f_n`,
-        `buffers.f_t` or `buffers.loads()`.
+        arrays of `buffers.shape` (or flat, of its size; inputs as in the
+        module docstring); pitch [rad] : broadcastable to `buffers.shape`.
+        Returns the largest root-solver iteration count; the loads are
+        `buffers.f_n`, `buffers.f_t` or `buffers.loads()`.
         """
-        o = self.options
-        r, vn, vt, skew, psi = (np.ravel(x) for x in (r, v_normal, v_tangential, skew, skew_azimuth))
         n = buffers.theta.size
-        if not r.size == vn.size == vt.size == skew.size == psi.size == n:
+        if not r.size == v_normal.size == v_tangential.size == skew.size == skew_azimuth.size == n:
             raise ValueError(f"solve_into: element arrays must have shape {buffers.shape}")
-        np.add(np.ravel(pitch) if np.ndim(pitch) else pitch, buffers.twist, out=buffers.theta)
+        np.add(pitch, buffers.twist, out=buffers.theta)
         grid, value, slope = self.polars.arrays
-        return _solve_elements(
-            r, vn, vt, buffers.theta, buffers.chord, buffers.offset, skew, psi, grid, value, slope,
-            float(self.num_blades), self.tip_radius, self.hub_radius, self.air_density,
-            o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
-            o.skew_correction, float(o.skew_factor), float(o.tolerance), int(o.max_iterations),
-            buffers.out)
+        return _solve_elements(r.ravel(), v_normal.ravel(), v_tangential.ravel(), buffers.theta.ravel(),
+                               buffers.chord.ravel(), buffers.offset.ravel(), skew.ravel(),
+                               skew_azimuth.ravel(), grid, value, slope, *self._constants, buffers.out)
 
     def solve(self, r, v_normal, v_tangential, pitch=0.0, skew=0.0, skew_azimuth=0.0) -> ElementLoads:
         """Solve all elements; see the module docstring for inputs and outputs."""
@@ -518,5 +516,6 @@ class BemSolver:
             return np.broadcast_to(x, shape).ravel()
 
         buffers = self.allocate(shape)
-        iterations = self.solve_into(buffers, *(flat(x) for x in (r, vn, vt, pitch, skew, psi)))
+        iterations = self.solve_into(buffers, *(flat(x) for x in (r, vn, vt)), pitch,
+                                     *(flat(x) for x in (skew, psi)))
         return buffers.loads(iterations)
