@@ -1,13 +1,16 @@
 """Aerodynamics of the reduced turbine model (second paper, section 3, eqs. 51-52).
 
 - `read_aerodyn(path)` -> `AeroDynDeck`: blades (`AeroBlade`, airfoil
-  `PolarSet`), air density, BEM switches, tower table (`TowerDrag`).
+  `PolarSet`), air density, BEM switches (`BemOptions`), tower table (`TowerDrag`).
 - `BemSolver(...).solve(r, V_n, V_t, pitch, skew, skew_azimuth)` ->
   `ElementLoads`: vectorised quasi-steady BEM for all blade elements
   (Prandtl tip/hub loss, Buhl/Glauert, Pitt/Peters); f_n, f_t [N/m].
+  `allocate(shape)` + `solve_into(buffers, ...)`: the same without allocation.
 - `steady_rotor(U, Omega, pitch, deck, ...)`: thrust, torque, power, C_P, C_T, C_Q.
-- `Wind`: uniform / time-varying wind with power-law shear.
-- `TowerDrag.load(z, v_wind, v_tower)`: tower drag per unit length (eq. 51).
+- `Wind`: uniform / time-varying wind with the power-law profile
+  `wind.power_law` (compiled twin `wind.power_law_at`).
+- `TowerDrag.load(z, v_wind, v_tower)`: tower drag per unit length (eq. 51)
+  (compiled twin `tower_drag.drag_forces`).
 """
 from modesel.aero.airfoils import Polar, PolarSet, read_polars
 from modesel.aero.bem import (BemOptions, BemSolver, ElementLoads, axial_induction,

@@ -4,7 +4,8 @@
 coefficients of any element are found by one bisection on that grid plus a
 row offset for its airfoil. The lookup is a compiled (numba) scalar kernel,
 `polar_coefficients`, called from inside the compiled BEM root solve (which runs at
-every right-hand-side evaluation of the time integrator).
+every right-hand-side evaluation of the time integrator); `Polar.coefficients`
+is its numpy reference on the raw table (tests/test_twins.py).
 
 Interpolation is linear in the angle of attack, as AeroDyn does for
 `InterpOrd = 1` / "default". The common grid is the union of all tables'
@@ -37,6 +38,13 @@ class Polar:
     cd: np.ndarray
     cm: np.ndarray
     name: str = ""
+
+    def coefficients(self, alpha):
+        """(cl, cd, cm) at angles of attack `alpha` [rad]: linear interpolation
+        in this table after wrapping to [-pi, pi), held beyond its ends (the
+        numpy reference of the compiled `PolarSet.coefficients`)."""
+        a = (np.asarray(alpha, float) + np.pi) % (2.0 * np.pi) - np.pi
+        return tuple(np.interp(a, self.alpha, c) for c in (self.cl, self.cd, self.cm))
 
 
 class PolarSet:

@@ -40,7 +40,9 @@ in (0, pi/2], else [-pi/4, 0), else [pi/2, pi) (Ning's order) and found with
 Chandrupatla's bracketed inverse-quadratic / bisection method: convergence
 is guaranteed once a sign change is found. The per-element work runs in a
 compiled (numba) loop over all elements, called once per evaluation with
-numpy arrays in and out; the model functions (`prandtl_loss`,
+numpy arrays in and out (`BemSolver.solve` allocates its result;
+`BemSolver.solve_into` fills arrays preallocated by `BemSolver.allocate`,
+for callers at every right-hand side); the model functions (`prandtl_loss`,
 `axial_induction`, `pitt_peters`) are compiled ufuncs shared by that loop
 and by Python callers.
 As in AeroDyn (AIDrag/TIDrag = False by default) the drag terms in c_n, c_t
@@ -58,7 +60,7 @@ the final phi = atan2(V_n (1 - a), V_t (1 + a')).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit, vectorize
@@ -97,13 +99,8 @@ class BemOptions:
 
     @classmethod
     def from_deck(cls, deck, **overrides):
-        """Options as set in an `AeroDynDeck`, with keyword overrides."""
-        values = dict(tip_loss=deck.tip_loss, hub_loss=deck.hub_loss,
-                      tangential_induction=deck.tangential_induction,
-                      axial_drag=deck.axial_drag, tangential_drag=deck.tangential_drag,
-                      skew_correction=deck.skew_correction, skew_factor=deck.skew_factor)
-        values.update(overrides)
-        return cls(**values)
+        """Options as set in an `AeroDynDeck` (its `bem`), with keyword overrides."""
+        return replace(deck.bem, **overrides)
 
 
 # --------------------------------------------------------------------------- models
@@ -386,6 +383,40 @@ class ElementLoads:
     iterations: int = 0      # largest root-solver iteration count
 
 
+@dataclass(frozen=True)
+class BemBuffers:
+    """Arrays preallocated for `BemSolver.solve_into` on one element shape.
+
+    twist [rad], chord [m], offset (polar rows): the solver's static element
+    data broadcast to `shape` (C-contiguous); theta [rad] (pitch + twist,
+    `shape`) and `out` (13, n: the `ElementLoads` fields in order, then
+    converged as 0/1) are overwritten by every solve.
+    """
+
+    shape: tuple
+    twist: np.ndarray
+    chord: np.ndarray
+    offset: np.ndarray
+    theta: np.ndarray
+    out: np.ndarray
+
+    @property
+    def f_n(self) -> np.ndarray:
+        """Normal load [N/m] of the last solve (a view of `out`, shape `shape`)."""
+        return self.out[9].reshape(self.shape)
+
+    @property
+    def f_t(self) -> np.ndarray:
+        """Tangential load [N/m] of the last solve (a view of `out`, shape `shape`)."""
+        return self.out[10].reshape(self.shape)
+
+    def loads(self, iterations: int = 0) -> ElementLoads:
+        """The last solve as `ElementLoads` (views of `out`; `converged` a copy)."""
+        fields = {name: self.out[i].reshape(self.shape) for i, name in enumerate(_FIELDS)}
+        return ElementLoads(**fields, converged=self.out[12].reshape(self.shape) > 0.5,
+                            iterations=int(iterations))
+
+
 class BemSolver:
     """BEM element solver for a fixed set of elements (chord, twist, airfoil).
 
@@ -393,6 +424,8 @@ class BemSolver:
     `solve(r, v_normal, v_tangential, pitch, skew, skew_azimuth)` at every
     right-hand-side evaluation. Static arrays and call arrays broadcast
     together, e.g. static (n_span,) with call arrays (n_blades, n_span).
+    Without allocation: `buffers = solver.allocate(shape)` once, then
+    `solver.solve_into(buffers, ...)` with arrays of that shape.
 
     tip_radius, hub_radius : distances of the undeflected blade tip / root
         from the rotation axis [m] (coned: TipRad cos(precone)).
@@ -410,7 +443,12 @@ class BemSolver:
         self.hub_radius = float(hub_radius)
         self.air_density = float(air_density)
         self.options = options or BemOptions()
-        self._static = {}  # element shape -> flattened (twist, chord, offset)
+        self._static = {}  # element shape -> (twist, chord, offset) broadcast to it
+        o = self.options
+        self._constants = (float(self.num_blades), self.tip_radius, self.hub_radius, self.air_density,
+                           o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag,
+                           o.tangential_drag, o.skew_correction, float(o.skew_factor),
+                           float(o.tolerance), int(o.max_iterations))
         if self.num_blades < 1:
             raise ModeselError(f"number of blades must be >= 1, got {num_blades}", field="NumBl")
         if not 0 < self.hub_radius < self.tip_radius:
@@ -433,9 +471,37 @@ class BemSolver:
                    tip_radius=(hub_radius + blade.span[-1]) * c, hub_radius=hub_radius * c,
                    air_density=air_density, options=options)
 
+    def allocate(self, shape) -> BemBuffers:
+        """Buffers for `solve_into` on elements of `shape` (the static element
+        arrays must broadcast to it)."""
+        shape = tuple(shape)
+        static = self._static.get(shape)
+        if static is None:
+            static = self._static[shape] = tuple(
+                np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (self.twist, self.chord, self.offset))
+        return BemBuffers(shape, *static, np.empty(shape), np.empty((13, int(np.prod(shape)))))
+
+    def solve_into(self, buffers: BemBuffers, r, v_normal, v_tangential, pitch, skew,
+                   skew_azimuth) -> int:
+        """Solve all elements into `buffers` (from `allocate`) without allocating.
+
+        r, v_normal, v_tangential, skew, skew_azimuth : C-contiguous float
+        arrays of `buffers.shape` (or flat, of its size; inputs as in the
+        module docstring); pitch [rad] : broadcastable to `buffers.shape`.
+        Returns the largest root-solver iteration count; the loads are
+        `buffers.f_n`, `buffers.f_t` or `buffers.loads()`.
+        """
+        n = buffers.theta.size
+        if not r.size == v_normal.size == v_tangential.size == skew.size == skew_azimuth.size == n:
+            raise ValueError(f"solve_into: element arrays must have shape {buffers.shape}")
+        np.add(pitch, buffers.twist, out=buffers.theta)
+        grid, value, slope = self.polars.arrays
+        return _solve_elements(r.ravel(), v_normal.ravel(), v_tangential.ravel(), buffers.theta.ravel(),
+                               buffers.chord.ravel(), buffers.offset.ravel(), skew.ravel(),
+                               skew_azimuth.ravel(), grid, value, slope, *self._constants, buffers.out)
+
     def solve(self, r, v_normal, v_tangential, pitch=0.0, skew=0.0, skew_azimuth=0.0) -> ElementLoads:
         """Solve all elements; see the module docstring for inputs and outputs."""
-        o = self.options
         r, vn, vt, pitch, skew, psi = (np.asarray(x, dtype=float) for x in
                                        (r, v_normal, v_tangential, pitch, skew, skew_azimuth))
         shape = np.broadcast_shapes(r.shape, vn.shape, vt.shape, pitch.shape, skew.shape,
@@ -449,20 +515,7 @@ class BemSolver:
                 return np.full(size, float(x))
             return np.broadcast_to(x, shape).ravel()
 
-        static = self._static.get(shape)
-        if static is None:
-            static = self._static[shape] = tuple(
-                np.ascontiguousarray(flat(x)) for x in (self.twist, self.chord, self.offset))
-        twist, chord, offset = static
-        r, vn, vt, pitch, skew, psi = (flat(x) for x in (r, vn, vt, pitch, skew, psi))
-        out = np.empty((13, r.size))
-        grid, value, slope = self.polars.arrays
-        iterations = _solve_elements(
-            r, vn, vt, pitch + twist, chord, offset, skew, psi, grid, value, slope,
-            float(self.num_blades), self.tip_radius, self.hub_radius, self.air_density,
-            o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
-            o.skew_correction, float(o.skew_factor), float(o.tolerance), int(o.max_iterations),
-            out)
-        fields = {name: out[i].reshape(shape) for i, name in enumerate(_FIELDS)}
-        return ElementLoads(**fields, converged=out[12].reshape(shape) > 0.5,
-                            iterations=int(iterations))
+        buffers = self.allocate(shape)
+        iterations = self.solve_into(buffers, *(flat(x) for x in (r, vn, vt)), pitch,
+                                     *(flat(x) for x in (skew, psi)))
+        return buffers.loads(iterations)

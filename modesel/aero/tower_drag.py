@@ -13,13 +13,19 @@ ground / MSL], TwrDiam [m], TwrCd [-]), linearly interpolated and held
 constant beyond the table ends. Without a table, `TowerDrag.nrel5mw_default`
 gives the NREL 5-MW values (diameter 6 m at the base to 3.87 m at the top,
 Cd = 1.0; Jonkman et al. 2009, NREL/TP-500-38060).
+
+`TowerDrag.load` (numpy, any shapes) has a compiled twin, `drag_forces`
+(numba, node loop with the power-law wind of `aero.wind`), for the
+`tower_drag` effect; tests/test_twins.py holds them equal.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
+from modesel.aero.wind import power_law_at
 from modesel.errors import ModeselError
 
 
@@ -60,6 +66,12 @@ class TowerDrag:
         return (np.interp(z, self.elevation, self.diameter),
                 np.interp(z, self.elevation, self.drag_coefficient))
 
+    def coefficient(self, z, air_density: float = 1.225):
+        """1/2 rho Cd(z) d(z) [kg/m^2] at elevations `z` [m]: the load per unit
+        length is this times |v_rel| v_rel (eq. 51)."""
+        d, cd = self.properties(z)
+        return 0.5 * air_density * cd * d
+
     def load(self, z, wind_velocity, tower_velocity=0.0, air_density: float = 1.225):
         """Drag force per unit tower length [N/m], eq. 51.
 
@@ -71,11 +83,30 @@ class TowerDrag:
         with a zero z component for 3-vectors.
         """
         v_rel = np.asarray(wind_velocity, float) - np.asarray(tower_velocity, float)
-        d, cd = self.properties(z)
+        c = self.coefficient(z, air_density)
         if v_rel.ndim == np.ndim(z) + 1 and v_rel.shape[-1] in (2, 3):
             normal = v_rel.copy()
             if normal.shape[-1] == 3:
                 normal[..., 2] = 0.0
             speed = np.sqrt(np.sum(normal * normal, axis=-1))
-            return (0.5 * air_density * cd * d * speed)[..., None] * normal
-        return 0.5 * air_density * cd * d * np.abs(v_rel) * v_rel
+            return (c * speed)[..., None] * normal
+        return c * np.abs(v_rel) * v_rel
+
+
+@njit(cache=True)
+def drag_forces(pos, vel, U, shear, z_ref, cdir, sdir, coef, out):
+    """Compiled twin of `TowerDrag.load` for 3-vectors at points k (eq. 51):
+    out_k = coef_k |v_rel| v_rel, v_rel the horizontal wind (`power_law_at`
+    the point height pos[k, 2] [m], reference speed U [m/s], exponent
+    `shear`, reference height z_ref [m], direction (cdir, sdir)) minus the
+    point's horizontal velocity vel[k] [m/s]; out[k, 2] = 0. With
+    coef_k = `TowerDrag.coefficient` times a length [m] the result is a force [N]
+    (per unit length [N/m] without)."""
+    for k in range(pos.shape[0]):
+        u = power_law_at(pos[k, 2], U, shear, z_ref)
+        v0 = u * cdir - vel[k, 0]
+        v1 = u * sdir - vel[k, 1]
+        s = coef[k] * np.sqrt(v0 * v0 + v1 * v1)
+        out[k, 0] = s * v0
+        out[k, 1] = s * v1
+        out[k, 2] = 0.0

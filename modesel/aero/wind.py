@@ -9,12 +9,39 @@ ElastoDyn x axis (downwind) towards y; direction 0 is aligned with the
 un-yawed rotor. `alpha = 0` gives a uniform field; the IEC 61400-1 normal
 wind profile uses alpha = 0.2. The default reference height 90 m is the
 NREL 5-MW hub height.
+
+The profile is one formula with two implementations: `power_law` (numpy,
+any shapes) and its compiled scalar twin `power_law_at` (numba, called from
+the compiled inflow and tower-drag loops); tests/test_twins.py holds them
+equal.
 """
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from modesel.errors import ModeselError
+
+
+def power_law(z, speed, shear_exponent: float, reference_height: float):
+    """Power-law wind profile u = U (z / z_ref)^alpha for z > 0, 0 for z <= 0.
+
+    z : heights above ground [m] (any shape, broadcast with `speed`).
+    speed : U, the speed at the reference height [m/s].
+    shear_exponent : alpha [-]; reference_height : z_ref [m] (> 0).
+    Returns u [m/s].
+    """
+    z = np.asarray(z, float)
+    ratio = np.where(z > 0, z, 1.0) / reference_height
+    return speed * np.where(z > 0, ratio ** shear_exponent, 0.0)
+
+
+@njit(cache=True)
+def power_law_at(z, speed, shear_exponent, reference_height):
+    """`power_law` at one height z [m] (compiled scalar twin) [m/s]."""
+    if z > 0.0:
+        return speed * (z / reference_height) ** shear_exponent
+    return 0.0
 
 
 class Wind:
@@ -61,10 +88,7 @@ class Wind:
 
     def velocity(self, z, t=0.0):
         """Horizontal wind speed u(z, t) [m/s] (broadcast over z [m] and t [s])."""
-        z = np.asarray(z, float)
-        ratio = np.where(z > 0, z, 1.0) / self.reference_height
-        profile = np.where(z > 0, ratio ** self.shear_exponent, 0.0)
-        return self.reference_speed(t) * profile
+        return power_law(z, self.reference_speed(t), self.shear_exponent, self.reference_height)
 
     def vector(self, z, t=0.0):
         """Wind velocity vectors (..., 3) [m/s] in the ElastoDyn axes."""

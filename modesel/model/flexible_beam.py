@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modesel.multibody.bodies import FlexibleBody, Joint, Rotation, Shortening
+from modesel.multibody.quadrature import gauss_legendre
 
 # displacement direction of each bending field in its body frame
 FIELD_DIRECTION = {
@@ -26,15 +27,10 @@ FIELD_DIRECTION = {
 
 
 def beam_quadrature(span: np.ndarray, min_nodes: int = 40):
-    """Gauss-Legendre points and weights [m] inside each station interval."""
-    span = np.asarray(span, float)
+    """Gauss-Legendre points and weights [m] inside each station interval
+    (`multibody.quadrature.gauss_legendre`), at least `min_nodes` in all."""
     n_int = len(span) - 1
-    ppi = max(2, int(np.ceil(min_nodes / n_int)))
-    xg, wg = np.polynomial.legendre.leggauss(ppi)
-    a, b = span[:-1, None], span[1:, None]
-    s = 0.5 * (a + b) + 0.5 * (b - a) * xg[None, :]
-    w = 0.5 * (b - a) * wg[None, :]
-    return s.ravel(), w.ravel()
+    return gauss_legendre(span, max(2, int(np.ceil(min_nodes / n_int))))
 
 
 def interpolate(beam, values: np.ndarray, s: np.ndarray) -> np.ndarray:

@@ -49,6 +49,7 @@ from scipy.interpolate import BPoly
 
 from modesel.candidates.base import ShapeSet
 from modesel.errors import ModeselError
+from modesel.multibody.quadrature import gauss_legendre
 
 ILL_CONDITIONED = 1e8
 
@@ -73,15 +74,13 @@ class Quadrature:
 
 
 def quadrature(beam, points_per_interval: int = 8) -> Quadrature:
-    """Gauss-Legendre points inside each station interval of `beam`."""
+    """Gauss-Legendre points inside each station interval of `beam`
+    (`multibody.quadrature.gauss_legendre`)."""
     span = np.asarray(beam.span, dtype=float)
     if span.ndim != 1 or len(span) < 2 or np.any(np.diff(span) <= 0) or span[0] != 0.0:
         raise ModeselError("beam stations must increase from 0", file=getattr(beam, "source", None),
                            field="span")
-    xg, wg = np.polynomial.legendre.leggauss(int(points_per_interval))
-    a, b = span[:-1, None], span[1:, None]
-    s = (0.5 * (a + b) + 0.5 * (b - a) * xg).ravel()
-    w = (0.5 * (b - a) * wg).ravel()
+    s, w = gauss_legendre(span, points_per_interval)
     return Quadrature(s, w, float(span[-1]))
 
 

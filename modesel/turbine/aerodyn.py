@@ -20,14 +20,15 @@ import numpy as np
 
 from modesel.errors import ModeselError
 from modesel.aero.airfoils import PolarSet, read_polars
+from modesel.aero.bem import PITT_PETERS_FACTOR, BemOptions
 from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
 #: OpenFAST glue code's AirDens 1.225 kg/m^3, KinVisc 1.464e-5 m^2/s,
-#: SpdSound 335 m/s) and the Pitt/Peters constant 15 pi / 32.
+#: SpdSound 335 m/s) and the Pitt/Peters constant (`aero.bem.PITT_PETERS_FACTOR`).
 DEFAULTS = {"AirDens": 1.225, "KinVisc": 1.464e-5, "SpdSound": 335.0,
-            "SkewModFactor": 15.0 * np.pi / 32.0}
+            "SkewModFactor": PITT_PETERS_FACTOR}
 
 
 @dataclass
@@ -37,11 +38,12 @@ class AeroDynDeck:
     blades : one `AeroBlade` per blade file (identical files are read once
         and shared).
     air_density [kg/m^3], kinematic_viscosity [m^2/s], speed_of_sound [m/s].
-    tip_loss, hub_loss, tangential_induction, axial_drag, tangential_drag :
-        AeroDyn flags TipLoss, HubLoss, TanInd, AIDrag, TIDrag.
-    skew_correction : apply the Pitt/Peters skewed-wake correction (v15:
-        SkewMod = 2; OpenFAST 4: Skew_Mod = 1 with SkewRedistr_Mod = 1).
-    skew_factor : SkewModFactor (v15) / SkewRedistrFactor (OpenFAST 4).
+    bem : the BEM switches as `BemOptions`: tip_loss, hub_loss,
+        tangential_induction, axial_drag, tangential_drag from the AeroDyn
+        flags TipLoss, HubLoss, TanInd, AIDrag, TIDrag; skew_correction
+        (Pitt/Peters; v15: SkewMod = 2; OpenFAST 4: Skew_Mod = 1 with
+        SkewRedistr_Mod = 1); skew_factor from SkewModFactor (v15) /
+        SkewRedistrFactor (OpenFAST 4).
     tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd, or None if absent.
     tower_aero : TwrAero flag (apply tower drag).
     notes : one sentence per documented default or fallback applied.
@@ -51,13 +53,7 @@ class AeroDynDeck:
     air_density: float = DEFAULTS["AirDens"]
     kinematic_viscosity: float = DEFAULTS["KinVisc"]
     speed_of_sound: float = DEFAULTS["SpdSound"]
-    tip_loss: bool = True
-    hub_loss: bool = True
-    tangential_induction: bool = True
-    axial_drag: bool = False
-    tangential_drag: bool = False
-    skew_correction: bool = True
-    skew_factor: float = DEFAULTS["SkewModFactor"]
+    bem: BemOptions = field(default_factory=BemOptions)
     tower: TowerDrag | None = None
     tower_aero: bool = False
     source: str | None = None
@@ -225,13 +221,14 @@ def read_aerodyn(path) -> AeroDynDeck:
         air_density=_number(main["AirDens"], path, "AirDens", notes),
         kinematic_viscosity=_number(main["KinVisc"], path, "KinVisc", notes),
         speed_of_sound=_number(main["SpdSound"], path, "SpdSound", notes),
-        tip_loss=_flag(main["TipLoss"], path, "TipLoss"),
-        hub_loss=_flag(main["HubLoss"], path, "HubLoss"),
-        tangential_induction=_flag(main["TanInd"], path, "TanInd"),
-        axial_drag=_flag(main["AIDrag"], path, "AIDrag"),
-        tangential_drag=_flag(main["TIDrag"], path, "TIDrag"),
-        skew_correction=bool(main["SkewCorr"]),
-        skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes),
+        bem=BemOptions(
+            tip_loss=_flag(main["TipLoss"], path, "TipLoss"),
+            hub_loss=_flag(main["HubLoss"], path, "HubLoss"),
+            tangential_induction=_flag(main["TanInd"], path, "TanInd"),
+            axial_drag=_flag(main["AIDrag"], path, "AIDrag"),
+            tangential_drag=_flag(main["TIDrag"], path, "TIDrag"),
+            skew_correction=bool(main["SkewCorr"]),
+            skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes)),
         tower=tower,
         tower_aero=_flag(main["TwrAero"], path, "TwrAero"),
         source=path,

@@ -24,11 +24,10 @@ Needs [effects.wind]. At every right-hand side:
    wind relative to the hub (wind at the apex minus the hub velocity), so a
    shaft tilt, a yaw error or nacelle motion skew the wake; psi is each
    blade's azimuth from the in-plane direction of that relative wind.
-4. BEM for all blades and stations at once -> f_n, f_t [N/m]: the compiled
-   element loop of `BemSolver.solve` called on preallocated flat arrays
-   (`StationBem`; the public `solve` allocates its result object at every
-   call, which costs as much as the solution itself here; the test suite
-   holds both equal).
+4. BEM for all blades and stations at once -> f_n, f_t [N/m]:
+   `BemSolver.solve_into` on buffers preallocated once (`StationBem`;
+   `solve` allocates its result at every call, which costs as much as the
+   solution itself here).
 5. Loads: f = f_n e_n + f_t e_t per unit length at the stations,
    interpolated linearly in span to the blade's quadrature nodes and
    multiplied by the node quadrature weights w_k [m]: node force
@@ -47,10 +46,10 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from modesel.aero.wind import power_law_at
 from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
-
 
 
 @functools.lru_cache(maxsize=8)
@@ -162,30 +161,17 @@ class BladeAerodynamics(Effect):
 
 
 class StationBem:
-    """`BemSolver.solve` for a fixed (n_blades, n_stations) element set,
-    returning only (f_n, f_t) views of a preallocated result."""
+    """`solver` on a fixed (n_blades, n_stations) element set: (f_n, f_t)
+    [N/m] by `BemSolver.solve_into` into buffers allocated once (views,
+    overwritten by the next call)."""
 
     def __init__(self, solver, n_blades):
         self.solver = solver
-        o = solver.options
-        B, M = n_blades, solver.chord.size
-        self.twist = np.ascontiguousarray(np.broadcast_to(solver.twist, (B, M)).ravel())
-        self.chord = np.ascontiguousarray(np.broadcast_to(solver.chord, (B, M)).ravel())
-        self.offset = np.ascontiguousarray(np.broadcast_to(solver.offset, (B, M)).ravel())
-        self.theta = np.empty(B * M)
-        self.out = np.empty((13, B * M))
-        self.shape = (B, M)
-        self.args = (float(solver.num_blades), solver.tip_radius, solver.hub_radius, solver.air_density,
-                     o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
-                     o.skew_correction, float(o.skew_factor), float(o.tolerance), int(o.max_iterations))
+        self.buffers = solver.allocate((n_blades, solver.chord.size))
 
     def __call__(self, r, vn, vt, pitch, skew, psi):
-        from modesel.aero.bem import _solve_elements
-        np.add(self.twist, pitch, out=self.theta)
-        grid, value, slope = self.solver.polars.arrays
-        _solve_elements(r.ravel(), vn.ravel(), vt.ravel(), self.theta, self.chord, self.offset, skew.ravel(),
-                        psi.ravel(), grid, value, slope, *self.args, self.out)
-        return self.out[9].reshape(self.shape), self.out[10].reshape(self.shape)
+        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi)
+        return self.buffers.f_n, self.buffers.f_t
 
 
 @njit(cache=True)
@@ -212,10 +198,11 @@ def _linear_weights(stations, at):
 
 @njit(cache=True)
 def inflow(R, vec, hub, blades, pos, vel, U, shear, z_ref, cdir, sdir, vn, vt, skew, psi, en, et):
-    """Element inflow (module doc, steps 2-3) for all blades and stations."""
+    """Element inflow (module doc, steps 2-3) for all blades and stations;
+    (chi_0, psi) is the compiled twin of `aero.bem.skew_angles`."""
     xs = R[hub, :, 0]
     apex, vhub = vec[hub, 0], vec[hub, 1]
-    u = U * (apex[2] / z_ref) ** shear if apex[2] > 0.0 else 0.0
+    u = power_law_at(apex[2], U, shear, z_ref)
     w0, w1, w2 = u * cdir - vhub[0], u * sdir - vhub[1], -vhub[2]
     wa = w0 * xs[0] + w1 * xs[1] + w2 * xs[2]
     p0, p1, p2 = w0 - wa * xs[0], w1 - wa * xs[1], w2 - wa * xs[2]
@@ -239,7 +226,7 @@ def inflow(R, vec, hub, blades, pos, vel, U, shear, z_ref, cdir, sdir, vn, vt, s
             psi_b = np.arccos(min(1.0, max(-1.0, cp)))
         for k in range(pos.shape[1]):
             z = pos[b, k, 2]
-            uk = U * (z / z_ref) ** shear if z > 0.0 else 0.0
+            uk = power_law_at(z, U, shear, z_ref)
             v0 = uk * cdir - vel[b, k, 0]
             v1 = uk * sdir - vel[b, k, 1]
             v2 = -vel[b, k, 2]

@@ -2,14 +2,14 @@
 
     p = 1/2 rho Cd(z) d(z) |v_rel| v_rel,   v_rel = wind(z, t) - v_tower(z)
 
-per unit length (`aero.TowerDrag.load`), with the tower's own velocity at
-each quadrature node from the engine's kinematics, applied as node forces
+per unit length (`aero.TowerDrag.load`, here its compiled twin
+`aero.tower_drag.drag_forces`), with the tower's own velocity at each
+quadrature node from the engine's kinematics, applied as node forces
 F_k = p(z_k) w_k (w_k the node quadrature weight). Diameter and Cd come from
 the AeroDyn deck's tower table (TwrElev, TwrDiam, TwrCd), taken at the
 nodes' heights at rest (the tower shortens by centimetres at most); the
 wind is evaluated at the nodes' current heights. No tower shadow on the
-blades. Needs [effects.wind]. `drag_forces` is the compiled twin of
-`aero.TowerDrag.load` (tests hold them equal).
+blades. Needs [effects.wind].
 
     [effects.tower_drag]
     aerodyn = "path/to/AeroDyn.dat"   # default: the aero effect's deck / the built-in one
@@ -17,8 +17,8 @@ blades. Needs [effects.wind]. `drag_forces` is the compiled twin of
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from modesel.aero.tower_drag import drag_forces
 from modesel.model.effects.aero import aerodyn_deck, wind_of
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
@@ -42,8 +42,7 @@ class TowerDragLoads(Effect):
         self.rho = deck.air_density
         self.nodes = PointSet.of_body(built.eq, "tower")
         z_rest = self.nodes.kinematics(built.frames(*_rest(built)), *_rest(built))[0][:, 2]
-        d, cd = self.drag.properties(z_rest)
-        self.coef = 0.5 * self.rho * cd * d * np.asarray(built.model.weights["tower"], float)
+        self.coef = self.drag.coefficient(z_rest, self.rho) * np.asarray(built.model.weights["tower"], float)
         w = self.wind
         self.shear, self.z_ref = w.shear_exponent, w.reference_height
         self.cdir, self.sdir = np.cos(w.direction), np.sin(w.direction)
@@ -63,20 +62,5 @@ def _rest(built):
     n = built.eq.n_all
     return built.eq.fixed_values.copy(), np.zeros(n)
 
-
-@njit(cache=True)
-def drag_forces(pos, vel, U, shear, z_ref, cdir, sdir, coef, out):
-    """Eq. 51 at every node: out_k = coef_k |v_rel| v_rel with v_rel the
-    horizontal wind (power law at the node height) minus the node's
-    horizontal velocity; coef_k = 1/2 rho Cd d w_k."""
-    for k in range(pos.shape[0]):
-        z = pos[k, 2]
-        u = U * (z / z_ref) ** shear if z > 0.0 else 0.0
-        v0 = u * cdir - vel[k, 0]
-        v1 = u * sdir - vel[k, 1]
-        s = coef[k] * np.sqrt(v0 * v0 + v1 * v1)
-        out[k, 0] = s * v0
-        out[k, 1] = s * v1
-        out[k, 2] = 0.0
 
 EFFECT = TowerDragLoads

@@ -1,0 +1,258 @@
+"""Every twin of the code base, checked against its other half.
+
+A twin is one formula implemented twice: a numpy reference and a compiled
+(numba) loop that the time integrator calls at every right-hand side, or the
+numeric engine and its exact SymPy derivation. Each entry of `TWINS` names
+both halves and returns (what, reference, twin) triples at random inputs;
+one parametrised test holds every pair equal to `REL`, relative to the
+largest reference value (exactly where the reference is all zeros).
+Formulas that share their code, like the BEM model ufuncs `prandtl_factor`,
+`axial_induction` and `pitt_peters`, are no twins.
+
+The multibody twins are reached through the public front only
+(`modesel.simulation.api.build`, `KaneEquations`, `Built.frames`).
+"""
+import functools
+import importlib.util
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from modesel.aero import BemOptions, BemSolver, Wind, read_aerodyn, skew_angles
+from modesel.aero.tower_drag import drag_forces
+from modesel.aero.wind import power_law, power_law_at
+from modesel.model.effects.aero import inflow
+from modesel.multibody.kane import KaneEquations
+from modesel.multibody.kinematics import PointSet
+from modesel.simulation.api import build, load_scene
+from modesel.simulation.scene import scene_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+AD_FILE = ROOT / "modesel" / "turbine" / "data" / "nrel5mw" / "NREL5MW_AD.dat"
+SCENES = ROOT / "studies" / "scenes"
+REL = 1e-10
+TWINS = {}
+
+
+def twin(name):
+    """Register a check `rng -> [(what, reference, twin), ...]` under `name`;
+    its docstring names the two halves."""
+    def register(check):
+        TWINS[name] = check
+        return check
+    return register
+
+
+def unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def random_rotation(rng):
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+# ----------------------------------------------------------------------------- aerodynamics
+
+@twin("wind_profile")
+def wind_profile(rng):
+    """aero.wind.power_law (numpy) / power_law_at (numba)."""
+    z = np.concatenate([[0.0, -3.0], rng.uniform(-10.0, 200.0, 200)])
+    U, alpha, z_ref = rng.uniform(3.0, 25.0), rng.uniform(-0.1, 0.4), rng.uniform(20.0, 150.0)
+    compiled = np.array([power_law_at(zk, U, alpha, z_ref) for zk in z])
+    return [("u(z)", power_law(z, U, alpha, z_ref), compiled)]
+
+
+@twin("tower_drag")
+def tower_drag(rng):
+    """Eq. 51 with shear: aero.TowerDrag.load (numpy) / aero.tower_drag.drag_forces (numba)."""
+    drag = read_aerodyn(AD_FILE).tower
+    n, rho = 60, 1.225
+    wind = Wind(rng.uniform(3.0, 25.0), rng.uniform(0.0, 0.4), rng.uniform(60.0, 120.0),
+                direction=rng.uniform(-np.pi, np.pi))
+    pos = np.column_stack([rng.normal(0.0, 0.5, (n, 2)), rng.uniform(-2.0, 95.0, n)])
+    vel = rng.normal(0.0, 3.0, (n, 3))
+    length = rng.uniform(0.5, 2.0, n)                   # node weights [m]
+    reference = drag.load(pos[:, 2], wind.vector(pos[:, 2]), vel, rho) * length[:, None]
+    out = np.empty((n, 3))
+    drag_forces(pos, vel, wind.speed, wind.shear_exponent, wind.reference_height,
+                np.cos(wind.direction), np.sin(wind.direction),
+                drag.coefficient(pos[:, 2], rho) * length, out)
+    return [("node forces", reference, out)]
+
+
+@twin("polar_lookup")
+def polar_lookup(rng):
+    """aero.Polar.coefficients (np.interp, raw table) / PolarSet.coefficients (numba, common grid)."""
+    polars = read_aerodyn(AD_FILE).blade.polars
+    alpha = rng.uniform(-3 * np.pi, 3 * np.pi, 500)
+    out = []
+    for k, polar in enumerate(polars.polars):
+        out += [(f"polar {k} {name}", ref, got) for name, ref, got in
+                zip(("cl", "cd", "cm"), polar.coefficients(alpha), polars.coefficients(alpha, k))]
+    return out
+
+
+@twin("bem_elements")
+def bem_elements(rng):
+    """BemSolver.solve (numba, Chandrupatla) / the scalar reference of tests/test_aero.py
+    (classic residual, brentq), both solved to round-off."""
+    from test_aero import random_elements, scalar_solutions
+    deck = read_aerodyn(AD_FILE)
+    span, r, vn, vt, pitch, skew, psi = random_elements(rng, 60)
+    solver = BemSolver.from_blade(deck.blade, span, num_blades=3, hub_radius=1.5,
+                                  air_density=deck.air_density,
+                                  options=BemOptions.from_deck(deck, tolerance=1e-15))
+    res = solver.solve(r, vn, vt, pitch, skew, psi)
+    reference = scalar_solutions(deck, solver, r, vn, vt, pitch, skew, psi)
+    assert len(reference) > 0.9 * r.size
+    idx = list(reference)
+    ref = np.array(list(reference.values()))
+    return [(name, ref[:, j], getattr(res, name)[idx])
+            for j, name in enumerate(("a", "a_prime", "phi", "f_n", "f_t"))]
+
+
+@twin("blade_inflow")
+def blade_inflow(rng):
+    """model.effects.aero.inflow (numba) / Wind.vector and aero.skew_angles (numpy)."""
+    B, M = 3, 9
+    R = np.stack([random_rotation(rng) for _ in range(B + 1)])
+    vec = rng.normal(0.0, 1.0, (B + 1, 5, 3))
+    vec[0, 0, 2] = rng.uniform(60.0, 120.0)             # apex height [m]
+    pos = vec[0, 0] + rng.normal(0.0, 40.0, (B, M, 3))
+    vel = rng.normal(0.0, 20.0, (B, M, 3))
+    wind = Wind(rng.uniform(3.0, 25.0), rng.uniform(0.0, 0.4), rng.uniform(60.0, 120.0),
+                direction=rng.uniform(-0.5, 0.5))
+    vn, vt, skew, psi = (np.empty((B, M)) for _ in range(4))
+    en, et = np.empty((B, 3)), np.empty((B, 3))
+    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, wind.speed, wind.shear_exponent,
+           wind.reference_height, np.cos(wind.direction), np.sin(wind.direction),
+           vn, vt, skew, psi, en, et)
+    xs, zb = R[0, :, 0], R[1:, :, 2]
+    e_n = unit(xs - (zb @ xs)[:, None] * zb)
+    e_t = np.cross(e_n, zb)
+    v_rel = wind.vector(pos[..., 2]) - vel
+    radial = unit(zb - (zb @ xs)[:, None] * xs)
+    chi0, psi_ref = skew_angles(wind.vector(vec[0, 0, 2]) - vec[0, 1], xs, radial)
+    return [("V_n", np.einsum("bki,bi->bk", v_rel, e_n), vn),
+            ("V_t", -np.einsum("bki,bi->bk", v_rel, e_t), vt),
+            ("chi_0", np.broadcast_to(chi0, (B, M)), skew),
+            ("psi", np.broadcast_to(psi_ref[:, None], (B, M)), psi)]
+
+
+# ----------------------------------------------------------------------------- multibody
+
+def pendulum_chain_equations():
+    """The kernel test's chain exercising every joint feature (tests/test_kernel.py)."""
+    from test_kernel import pendulum_chain
+    return KaneEquations(pendulum_chain())
+
+
+@functools.lru_cache(maxsize=1)
+def turbine_built():
+    """NREL 5-MW with every flexible field, the rotor prescribed (all from the scene front)."""
+    d = {"turbine": "nrel5mw",
+         "modes": {"tower_fa": {"family": "elastodyn", "count": 2},
+                   "tower_ss": {"family": "elastodyn", "count": 1},
+                   "tower_torsion": {"family": "linear", "count": 1},
+                   "blade_flap": {"family": "elastodyn", "count": 2},
+                   "blade_edge": {"family": "elastodyn", "count": 1}},
+         "dofs": {"free": ["DrTr"], "constant_speed": {"GeAz": 12.1}},
+         "effects": {"gravity": True}}
+    return build(scene_from_dict(d))
+
+
+def random_state(eq, rng):
+    q = rng.normal(size=eq.n_all) * 0.5
+    qd = rng.normal(size=eq.n_all)
+    return q, qd
+
+
+def kane_pairs(eq, rng, what):
+    out = []
+    for k in range(2):
+        q, qd = random_state(eq, rng)
+        gen = rng.normal(size=eq.n_all) * 1e3
+        nodes = {b.name: rng.normal(size=(len(b.node_mass), 3)) * 1e3
+                 for b in eq.system.flexible_bodies()}
+        M, F = eq.evaluate_full(q, qd, nodes, gen)
+        Mr, Fr = eq.evaluate_full_reference(q, qd, nodes, gen)
+        t = rng.uniform(0.0, 10.0)
+        qf, qdf = q[eq.free_idx], qd[eq.free_idx]
+        Mf, Ff = eq.evaluate(qf, qdf, t)
+        Mfr, Ffr = eq.evaluate_reference(qf, qdf, t)
+        out += [(f"{what} M (all) #{k}", Mr, M), (f"{what} F (all) #{k}", Fr, F),
+                (f"{what} M (free) #{k}", Mfr, Mf), (f"{what} F (free) #{k}", Ffr, Ff)]
+    return out
+
+
+@twin("kane")
+def kane(rng):
+    """M, F: KaneEquations.evaluate(_full) (numba kernel) / evaluate(_full)_reference (numpy)."""
+    return (kane_pairs(pendulum_chain_equations(), rng, "pendulum chain")
+            + kane_pairs(turbine_built().eq, rng, "NREL 5-MW"))
+
+
+@twin("kinematics")
+def kinematics(rng):
+    """Frames and nodes: Built.frames, PointSet.kinematics (numba) / KaneEquations.kinematics,
+    node_kinematics (numpy)."""
+    b = turbine_built()
+    eq = b.eq
+    q, qd = random_state(eq, rng)
+    R, vec = b.frames(q, qd)
+    ref = eq.kinematics(q, qd)
+    out = []
+    for i, st in enumerate(ref):
+        out += [(f"R {i}", st.R, R[i]), (f"r {i}", st.r, vec[i, 0]), (f"v {i}", st.v, vec[i, 1]),
+                (f"w {i}", st.w, vec[i, 2])]
+    for name in ("tower", "blade1", "blade3"):
+        pos, vel = PointSet.of_body(eq, name).kinematics((R, vec), q, qd)
+        p_ref, v_ref, _ = eq.node_kinematics(name, ref[eq.body_index[name]], q, qd)
+        out += [(f"{name} positions", p_ref, pos), (f"{name} velocities", v_ref, vel)]
+    return out
+
+
+@twin("symbolic")
+def symbolic(rng):
+    """M, F of the first paper's 2-DOF model: SymPy derivation and its generated module
+    (multibody.symbolic.write_python) / numpy engine / numba kernel."""
+    from modesel.multibody.symbolic import derive_scene, write_python
+    scene = load_scene(SCENES / "paper_2dof_tower_shaft.toml")
+    built, model = build(scene), derive_scene(scene)
+    with tempfile.TemporaryDirectory() as folder:
+        spec = importlib.util.spec_from_file_location("eom_2dof", write_python(model, Path(folder) / "eom.py"))
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    out = []
+    for k in range(3):
+        q = np.array([rng.normal(0.0, 0.7) if n != "GeAz" else rng.uniform(0, 2 * np.pi)
+                      for n in model.coordinates])
+        qd = rng.normal(0.0, 0.7, len(q))
+        t = rng.uniform(0.0, 10.0)
+        M_sym, F_sym = model.evaluate(q, qd, t)
+        M_num, F_num = built.eq.evaluate_reference(q, qd, t)
+        M_ker, F_ker = built.M_F(t, q, qd)
+        out += [(f"M numpy #{k}", M_num, M_sym), (f"F numpy #{k}", F_num, F_sym),
+                (f"M kernel #{k}", M_ker, M_sym), (f"F kernel #{k}", F_ker, F_sym),
+                (f"M module #{k}", M_sym, module.mass_matrix(q, qd, t=t)),
+                (f"F module #{k}", F_sym, module.forcing(q, qd, t=t))]
+    return out
+
+
+# ----------------------------------------------------------------------------- the test
+
+@pytest.mark.parametrize("name", list(TWINS))
+def test_twins_agree(name):
+    check = TWINS[name]
+    pairs = check(np.random.default_rng(sum(map(ord, name))))
+    assert pairs
+    halves = check.__doc__.splitlines()[0]
+    for what, reference, got in pairs:
+        reference, got = np.asarray(reference, float), np.asarray(got, float)
+        assert reference.shape == got.shape, (what, reference.shape, got.shape)
+        err, scale = np.abs(got - reference).max(), np.abs(reference).max()
+        assert err <= REL * scale, f"{halves} {what}: difference {err:.2e}, reference scale {scale:.2e}"
