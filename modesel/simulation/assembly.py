@@ -70,8 +70,8 @@ class Built:
     eq: KaneEquations
     q0: np.ndarray
     qd0: np.ndarray
-    effects: tuple
-    linear: tuple = ()
+    effects: list
+    linear: list = field(default_factory=list)
     frame_cache: FrameCache | None = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -128,7 +128,7 @@ class Built:
         """The right-hand side for `integrate`: compiled when no effect acts
         at every step, else `M_F`."""
         if not self.acting and hasattr(self.eq, "compiled_rhs"):
-            return self.eq.compiled_rhs(list(self.linear))
+            return self.eq.compiled_rhs(self.linear)
         return self.M_F
 
 
@@ -146,7 +146,7 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
     (TwrBsMyt, RootMyc<b>; model/template.py). Effect life cycle: effects/base.py."""
     ms = effective_modeset(scene, modeset)
     init = scene.initial
-    effects = tuple(select_effects(scene))
+    effects = list(select_effects(scene))
     spec = BuildSpec(free=list(scene.free), fixed=dict(scene.fixed), prescribed={},
                      pitch=collective(init.get("BlPitch", 0.0)), damping=False, reactions=reactions)
     if ROTOR_AZIMUTH in scene.constant_speed:
@@ -168,7 +168,7 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
     bare = Built(scene, model, eq, q0, qd0, effects)
     for e in effects:
         e.setup(bare)
-    built = replace(bare, linear=tuple(term for e in effects for term in e.linear(bare)))
+    built = replace(bare, linear=[term for e in effects for term in e.linear(bare)])
     if init.get("equilibrium"):
         built = replace(built, q0=static_equilibrium(built))
     return built
