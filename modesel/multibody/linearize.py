@@ -125,10 +125,10 @@ def frequency_damping(lam: complex) -> tuple:
     return w / (2 * np.pi), (-lam.real / w if w > 0 else 0.0)
 
 
-def spectrum(lin: LinearModel, include_rigid: bool = False, tol_hz: float = 1e-5) -> list:
+def spectrum(lin: LinearModel, include_rigid: bool = False, tol_hz: float = 1e-5, lam=None) -> list:
     """[(frequency [Hz], damping ratio)] of the modes, as `modes` without
-    eigenvectors or labels."""
-    lam = eigenvalues(lin)
+    eigenvectors or labels; lam: the state matrix's eigenvalues if known."""
+    lam = eigenvalues(lin) if lam is None else lam
     out = [frequency_damping(lam[i]) for i in representatives(lam)]
     return sorted((f, z) for f, z in out if include_rigid or f >= tol_hz)
 

@@ -26,7 +26,7 @@ def _unstable(lam: np.ndarray) -> np.ndarray:
     return np.flatnonzero((lam.real > noise) & (np.abs(lam.imag) <= noise))
 
 
-def check_static_stability(lin: LinearModel, *, file=None, fields=None) -> None:
+def check_static_stability(lin: LinearModel, *, file=None, fields=None, lam=None) -> None:
     """Raise `PhysicallyUnstable` when the linearised model has a statically
     unstable elastic mode: a real positive eigenvalue lambda [1/s] of the
     first-order system [[0, I], [-M^-1 K, -M^-1 C]] (a negative effective
@@ -35,8 +35,9 @@ def check_static_stability(lin: LinearModel, *, file=None, fields=None) -> None:
     participation, `linearize.modes`) is elastic or a drivetrain twist.
     Zero-frequency and drifting rigid-body modes (free rotor, yaw, platform:
     RIGID_BODY_DOFS) are not flagged, nor real eigenvalues within round-off
-    of zero (STABILITY_NOISE). fields: {coordinate: what it is} for the message."""
-    if len(lin.names) == 0 or not len(_unstable(eigenvalues(lin))):
+    of zero (STABILITY_NOISE). fields: {coordinate: what it is} for the
+    message; lam: the state matrix's eigenvalues if known."""
+    if len(lin.names) == 0 or not len(_unstable(eigenvalues(lin) if lam is None else lam)):
         return
     lam, _, participation = eigen(lin)
     worst = None

@@ -10,7 +10,7 @@ from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
 from modesel.multibody.integrate import choose_method, integrate
-from modesel.multibody.linearize import linearize, spectrum
+from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation.assembly import Built, build
 from modesel.simulation.results import SimulationResult
 from modesel.simulation.scene import Scene
@@ -60,10 +60,11 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     if not all(np.all(np.isfinite(a)) for a in (lin.M, lin.C, lin.K)):
         raise ModeselError("the equations are not finite at the initial state (check the turbine's "
                            "properties and the scene's parameters)", file=scene.path)
+    lam = eigenvalues(lin)
     if scene.solver.get("stability_check", True):
-        check_static_stability(lin, file=scene.path, fields=coordinate_fields(names))
+        check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
-    omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin) if abs(zeta) < 1.0])
+    omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
     try:
         integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
