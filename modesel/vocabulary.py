@@ -55,8 +55,6 @@ MULTIBLADE_PARTS = ("coll", "cos", "sin")
 #: rigid coordinates measured in m (the others in rad)
 TRANSLATIONS = ("PtfmSurge",)
 
-KINDS = ("elastic", "drivetrain", "rigid", "reaction")
-
 
 class Dof(NamedTuple):
     """What a DOF name means: kind ('elastic', 'drivetrain', 'rigid',
@@ -95,15 +93,6 @@ def parse_dof(name: str) -> Dof:
     if m := _ROOT_REACTION.fullmatch(name):
         return Dof("reaction", int(m.group(1)))
     raise ValueError(f"not a DOF name: {name!r}")
-
-
-def is_dof(name: str) -> bool:
-    """`name` is a DOF name of the vocabulary."""
-    try:
-        parse_dof(name)
-    except ValueError:
-        return False
-    return True
 
 
 def dof_name(field: str, index: int, blade: int | None = None) -> str:

@@ -64,7 +64,7 @@ def channel_unit(name: str) -> str | None:
 
 
 def channels(built, integ) -> pd.DataFrame:
-    """Channels of `built` (api.Built) along `integ` (integrate.Integration)."""
+    """Channels of `built` (simulation.assembly.Built) along `integ` (integrate.Integration)."""
     model = built.model
     names = list(model.system.free)
     idx = {n: i for i, n in enumerate(names)}

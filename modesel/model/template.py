@@ -32,11 +32,11 @@ blade vibration in the rotating frame) are part of the engine's inertial
 terms and always present.
 
 Coordinate names (modesel/vocabulary.py): tower TFA1.., TSS1.., TTor1..;
-blades B{b}F1.., B{b}E1..; rigid: GeAz (generator azimuth, LSS side), DrTr (drivetrain twist), HSSTw
-(HSS twist referred to the LSS), Yaw, PtfmSurge, PtfmPitch. Output channels
-are Q_<name> like OpenFAST. A field absent from the ModeSet has no DOF
-(rigid in that direction), so a scene without blade DOFs allocates no
-blade states.
+blades B{b}F1.., B{b}E1..; rigid: GeAz (generator azimuth, LSS side), DrTr
+(drivetrain twist), HSSTw (HSS twist referred to the LSS), Yaw, PtfmSurge,
+PtfmPitch. Output channels are Q_<name> like OpenFAST. A field absent from
+the ModeSet has no DOF (rigid in that direction), so a scene without blade
+DOFs allocates no blade states.
 
 Damping ratios: the deck's; tower torsion (no ElastoDyn input) takes the
 first fore-aft ratio.
@@ -277,7 +277,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             shapes[fld] = fn
     tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
                                       tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes)
-    bodies.append(_undamped(tower) if not damping else tower)
+    bodies.append(tower if damping else _undamped(tower))
     tips["tower"] = ttip
     weights["tower"] = w_nodes
     spans["tower"] = s_nodes
@@ -347,7 +347,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             btip = {**btip, "length": btip["length"] - root}
             body = _blade_from_root(body, btip, root, t.tip_mass[b - 1])
             w_body = np.append(wb_nodes, 0.0) if t.tip_mass[b - 1] > 0 else wb_nodes
-            bodies.append(_undamped(body) if not damping else body)
+            bodies.append(body if damping else _undamped(body))
             tips[f"blade{b}"] = btip
             weights[f"blade{b}"] = w_body
             spans[f"blade{b}"] = sb_nodes

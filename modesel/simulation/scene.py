@@ -27,7 +27,7 @@ naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
     [solver]
     method = "auto"                  # auto | RK45 | DOP853 | Radau | BDF | LSODA
     rtol = 1e-8
-    stability_check = true           # refuse statically unstable configurations (api.simulate)
+    stability_check = true           # refuse statically unstable configurations (simulation/stability.py)
 """
 from __future__ import annotations
 
