@@ -65,7 +65,7 @@ def bench(name, modeset, free, initial, turbine, tmax, runs):
     # is not a vibration mode
     omegas = np.array([2 * np.pi * m.frequency_hz for m in lin.modes(model) if abs(m.damping_ratio) < 1.0])
     method, ratio = choose_method(omegas, "auto")
-    bounds = api._bounds(built)
+    bounds = api.divergence_bounds(built)
 
     def run():
         return integrate(rhs, built.q0, built.qd0, tmax, 0.01, method=method, bounds=bounds,

@@ -1,6 +1,6 @@
 """`ModeSet`: which family, how many modes and which shape parameters per field.
 
-Fields are the flexible fields of the turbine:
+Fields are the flexible fields of the turbine (`vocabulary.FIELDS`):
 `tower_fa`, `tower_ss`, `tower_torsion`, `blade_flap`, `blade_edge`.
 A field absent from a ModeSet keeps the scene's default (or is rigid when
 the scene does not free it).
@@ -12,8 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from modesel.errors import ModeselError, unknown_name
-
-FIELDS = ("tower_fa", "tower_ss", "tower_torsion", "blade_flap", "blade_edge")
+from modesel.vocabulary import FIELDS   # the flexible fields (also read from here)
 
 
 @dataclass(frozen=True)

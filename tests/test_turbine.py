@@ -82,6 +82,32 @@ def test_campbell_cyclic_modes_whirl_by_rotor_speed():
     assert "F1_coll" in model.names and "B1F1" not in model.names
 
 
+def test_campbell_whirl_direction_follows_the_frequency_split():
+    """The forward whirl of each cyclic pair is the upper frequency
+    (f_rotating + Omega / 2 pi), the backward one the lower; parked, no
+    mode whirls."""
+    modes, _ = linearize_scene(scene("turbine_parked_free_decay"), rpm=12.1)
+    for field, band in (("F1", (0.4, 1.0)), ("E1", (0.8, 1.5))):
+        pair = sorted((m.frequency_hz, m.whirl) for m in modes
+                      if m.label in (f"{field}_cos", f"{field}_sin") and band[0] < m.frequency_hz < band[1])
+        assert [w for _, w in pair] == ["backward", "forward"], (field, pair)
+    parked, _ = linearize_scene(scene("turbine_parked_free_decay"))
+    assert all(m.whirl is None for m in parked)
+
+
+def test_rated_mode_labels_are_unique_and_name_the_participating_coordinate():
+    """At rated speed the drivetrain mode and the collective edge mode (which
+    carries the drivetrain along) both move DrTr most in kinetic energy;
+    by participation they are DrTr (about 0.65 Hz) and E1_coll (3.6 Hz)."""
+    modes, _ = linearize_scene(scene("turbine_rated_gravity"))
+    labels = [m.label for m in modes]
+    assert len(set(labels)) == len(labels), labels
+    by_label = {m.label: m.frequency_hz for m in modes}
+    assert 0.6 < by_label["DrTr"] < 0.7 and 3.5 < by_label["E1_coll"] < 3.8
+    for m in modes:
+        assert m.participation.sum() == pytest.approx(1.0) and np.all(m.participation >= 0)
+
+
 def test_two_spring_drivetrain_is_a_three_inertia_chain():
     """Rigid tower and blades, generator free: the two-spring drivetrain
     (eq. 17-20) has the torsional frequencies of rotor - gearbox - generator

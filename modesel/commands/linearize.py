@@ -1,8 +1,10 @@
 """`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json]`
 
-Natural frequencies [Hz], damping ratios and dominant-DOF labels of the
-scene linearised about its initial state (zero elastic deflection); with
---rpm the rotor turns at each given constant speed (a Campbell sweep).
+Natural frequencies [Hz], damping ratios and labels (the most
+participating coordinate, unique per mode) of the scene linearised about its
+initial state (zero elastic deflection); with --rpm the rotor turns at each
+given constant speed (a Campbell sweep), and the cyclic rotor modes are
+marked forward or backward whirl.
 """
 from __future__ import annotations
 
@@ -54,5 +56,6 @@ def run(args) -> int:
             print(f"rotor speed {rpm:g} rpm")
         print(f"{'#':>3} {'frequency [Hz]':>15} {'damping [-]':>12}  label")
         for i, m in enumerate(modes, 1):
-            print(f"{i:>3} {m['frequency_hz']:>15.5f} {m['damping_ratio']:>12.5f}  {m['label']}")
+            whirl = f"  ({m['whirl']} whirl)" if "whirl" in m else ""
+            print(f"{i:>3} {m['frequency_hz']:>15.5f} {m['damping_ratio']:>12.5f}  {m['label']}{whirl}")
     return 0

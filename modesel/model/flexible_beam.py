@@ -16,14 +16,7 @@ import numpy as np
 
 from modesel.multibody.bodies import FlexibleBody, Joint, Rotation, Shortening
 from modesel.multibody.quadrature import gauss_legendre
-
-# displacement direction of each bending field in its body frame
-FIELD_DIRECTION = {
-    "tower_fa": np.array([1.0, 0.0, 0.0]),
-    "tower_ss": np.array([0.0, -1.0, 0.0]),   # ElastoDyn: Q_TSS displaces along -y
-    "blade_flap": np.array([1.0, 0.0, 0.0]),
-    "blade_edge": np.array([0.0, 1.0, 0.0]),
-}
+from modesel.vocabulary import FIELD_DIRECTION   # displacement direction of each bending field
 
 
 def beam_quadrature(span: np.ndarray, min_nodes: int = 40):

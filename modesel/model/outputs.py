@@ -30,14 +30,41 @@ blade downwind, as in OpenFAST.
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 
 from modesel.model.effects.base import Effect
+from modesel.vocabulary import dof_unit, parse_dof
+
+#: units of the channels (OpenFAST's); <b> stands for a blade number. A
+#: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
+CHANNEL_UNITS = {
+    "Time": "s", "Azimuth": "deg", "RotSpeed": "rpm", "GenSpeed": "rpm",
+    "TTDspFA": "m", "TTDspSS": "m", "TTDspTwst": "deg", "OoPDefl<b>": "m", "IPDefl<b>": "m",
+    "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg",
+    "RotThrust": "kN", "RotTorq": "kN-m", "GenTq": "kN-m", "GenPwr": "kW",
+    "TwrBsMyt": "kN-m", "RootMyc<b>": "kN-m",
+}
+
+
+def channel_unit(name: str) -> str | None:
+    """Unit of a simulation output channel (OpenFAST's), None if unknown."""
+    for prefix, rate in (("Q_", False), ("QD_", True)):
+        if name.startswith(prefix):
+            try:
+                return dof_unit(name[len(prefix):], rate=rate)
+            except ValueError:
+                return None
+    if name in CHANNEL_UNITS:
+        return CHANNEL_UNITS[name]
+    per_blade = re.fullmatch(r"(\D+)\d", name)
+    return CHANNEL_UNITS.get(f"{per_blade.group(1)}<b>") if per_blade else None
 
 
 def channels(built, integ) -> pd.DataFrame:
-    """Channels of `built` (api.Built) along `integ` (integrate.Integration)."""
+    """Channels of `built` (simulation.assembly.Built) along `integ` (integrate.Integration)."""
     model = built.model
     names = list(model.system.free)
     idx = {n: i for i, n in enumerate(names)}
@@ -71,8 +98,8 @@ def channels(built, integ) -> pd.DataFrame:
     data["TTDspSS"] = -sum((coord(d)[0] for d in ss), np.zeros_like(t))
     data["TTDspTwst"] = np.rad2deg(sum((coord(d)[0] for d in tw), np.zeros_like(t)))
     for b in range(1, model.turbine.num_blades + 1):
-        flap = [dofs for dofs in model.field_dofs.get("blade_flap", []) if dofs and dofs[0].startswith(f"B{b}")]
-        edge = [dofs for dofs in model.field_dofs.get("blade_edge", []) if dofs and dofs[0].startswith(f"B{b}")]
+        flap = [dofs for dofs in model.field_dofs.get("blade_flap", []) if dofs and parse_dof(dofs[0]).blade == b]
+        edge = [dofs for dofs in model.field_dofs.get("blade_edge", []) if dofs and parse_dof(dofs[0]).blade == b]
         if flap or edge:
             data[f"OoPDefl{b}"] = sum((coord(d)[0] for ds in flap for d in ds), np.zeros_like(t))
             data[f"IPDefl{b}"] = sum((coord(d)[0] for ds in edge for d in ds), np.zeros_like(t))

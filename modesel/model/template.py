@@ -31,12 +31,12 @@ Gyroscopic and Coriolis couplings (rotor speed with tower-top rotation,
 blade vibration in the rotating frame) are part of the engine's inertial
 terms and always present.
 
-Coordinate names: tower TFA1.., TSS1.., TTor1..; blades B{b}F1.., B{b}E1..;
-rigid: GeAz (generator azimuth, LSS side), DrTr (drivetrain twist), HSSTw
-(HSS twist referred to the LSS), Yaw, PtfmSurge, PtfmPitch. Output channels
-are Q_<name> like OpenFAST. A field absent from the ModeSet has no DOF
-(rigid in that direction), so a scene without blade DOFs allocates no
-blade states.
+Coordinate names (modesel/vocabulary.py): tower TFA1.., TSS1.., TTor1..;
+blades B{b}F1.., B{b}E1..; rigid: GeAz (generator azimuth, LSS side), DrTr
+(drivetrain twist), HSSTw (HSS twist referred to the LSS), Yaw, PtfmSurge,
+PtfmPitch. Output channels are Q_<name> like OpenFAST. A field absent from
+the ModeSet has no DOF (rigid in that direction), so a scene without blade
+DOFs allocates no blade states.
 
 Damping ratios: the deck's; tower torsion (no ElastoDyn input) takes the
 first fore-aft ratio.
@@ -58,15 +58,12 @@ from modesel.candidates.base import mode_shapes, shape_breakpoints
 from modesel.modeset import ModeSet
 from modesel.multibody.bodies import Joint, RigidBody, Rotation
 from modesel.multibody.kane import elementary_rotation
-from modesel.model.flexible_beam import (FIELD_DIRECTION, FieldShapes, beam_quadrature,
-                                                 build_flexible_body, evaluate_field, tip_joint)
+from modesel.model.flexible_beam import FieldShapes, beam_quadrature, build_flexible_body, evaluate_field, tip_joint
 from modesel.multibody.system import System
+from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, TOWER_BASE_REACTION, TOWER_FIELDS,
+                                field_dofs, is_blade_field, root_reaction)
 
-FIELD_PREFIX = {"tower_fa": "TFA", "tower_ss": "TSS", "tower_torsion": "TTor",
-                "blade_flap": "F", "blade_edge": "E"}
-RIGID_DOFS = ("GeAz", "DrTr", "HSSTw", "Yaw", "PtfmSurge", "PtfmPitch")
 DRIVETRAINS = ("elastodyn", "two_spring")
-TOWER_BASE_REACTION = "TwrBsRyt"
 FINE_POINTS = 801            # grid for the axial-shortening integrals
 #: quadrature nodes per mode of the richest field on a beam (at least `min_nodes`):
 #: mode k has about k half-waves, and Gauss quadrature of its curvature (or
@@ -81,19 +78,7 @@ NODES_PER_MODE = 12
 ENGINE_ILL_CONDITIONED = 1e4
 
 
-def root_reaction(blade: int) -> str:
-    """Name of blade `blade`'s root reaction coordinate."""
-    return f"RootRyc{blade}"
-
-
-def field_dofs(field_name: str, count: int, blade: int | None = None) -> tuple:
-    p = FIELD_PREFIX[field_name]
-    if blade is not None:
-        return tuple(f"B{blade}{p}{i + 1}" for i in range(count))
-    return tuple(f"{p}{i + 1}" for i in range(count))
-
-
-@dataclass
+@dataclass(frozen=True, eq=False)
 class TurbineModel:
     """The System plus what effects and outputs need to know.
 
@@ -137,7 +122,7 @@ class TurbineModel:
         Phi = np.zeros((len(span), 3, ne))
         col = 0
         for fld in (self.blade_fields if body.startswith("blade") else
-                    [f for f in ("tower_fa", "tower_ss", "tower_torsion") if f in self.field_dofs]):
+                    [f for f in TOWER_FIELDS if f in self.field_dofs]):
             k = self.modeset[fld].count
             if fld != "tower_torsion":
                 phi = self.shapes[fld](span / L).phi                 # (k, M)
@@ -173,7 +158,7 @@ def _shapes_for(turbine, fld, modes, rotor_speed):
     def raw(x):
         return mode_shapes(fld, modes.family, modes.count, ctx, x=x, **modes.params)
 
-    beam = turbine.blade if fld.startswith("blade") else turbine.tower
+    beam = turbine.blade if is_blade_field(fld) else turbine.tower
     return conditioned_shapes(beam, raw, fld, threshold=ENGINE_ILL_CONDITIONED)[0]
 
 
@@ -208,11 +193,33 @@ def _nodes_for(modeset: ModeSet, fields, min_nodes: int) -> int:
     return max(int(min_nodes), NODES_PER_MODE * max(counts, default=0))
 
 
+def _blade_from_root(body, tip: dict, root: float, tip_mass: float):
+    """`body` (built with node z = root offset + s) with its origin at the
+    blade root, and the tip brake `tip_mass` [kg] as a last node at the tip
+    (zero quadrature weight; it moves with the tip shapes and shortening)."""
+    nodes = body.nodes - np.array([0.0, 0.0, root])
+    if tip_mass <= 0:
+        return replace(body, nodes=nodes)
+    tip_phi = np.zeros((1, 3, body.n_elastic))
+    for i, d in enumerate(body.dofs):
+        tip_phi[0, :, i] = tip["displacement"].get(d, np.zeros(3))
+    shortening = None if body.shortening is None else \
+        np.concatenate([body.shortening, tip["shortening"][1][None]], axis=0)
+    return replace(body, nodes=np.vstack([nodes, [0.0, 0.0, tip["length"]]]),
+                   node_mass=np.append(body.node_mass, tip_mass),
+                   shapes=np.concatenate([body.shapes, tip_phi], axis=0), shortening=shortening)
+
+
+def _undamped(body):
+    """`body` without structural damping."""
+    return body if body.damping is None else replace(body, damping=np.zeros_like(body.damping))
+
+
 def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=None,
                   gravity: bool = True, geometric_stiffening: bool = True,
                   rotor_speed_for_shapes: float = 0.0, pitch: float = 0.0,
                   include_blades: bool = True, min_nodes: int = 40, drivetrain: str = "elastodyn",
-                  gearbox_inertia: float = 0.0, reactions: bool = False) -> TurbineModel:
+                  gearbox_inertia: float = 0.0, reactions: bool = False, damping: bool = True) -> TurbineModel:
     """Body tree of `turbine` with the elastic fields of `modeset`.
 
     free: rigid DOFs integrated in time (subset of RIGID_DOFS); elastic DOFs
@@ -220,7 +227,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     {name: Prescribed}. pitch [rad] collective (fixed). drivetrain:
     "elastodyn" or "two_spring" (then HSSTw is a DOF and the gearbox has
     `gearbox_inertia` [kg m^2, LSS side] about the shaft). reactions: add
-    the fixed reaction coordinates (module doc). min_nodes: quadrature nodes
+    the fixed reaction coordinates (module doc). damping: False builds the
+    beams without structural damping (D_e = 0). min_nodes: quadrature nodes
     per beam, raised to NODES_PER_MODE per mode for many modes. Units SI.
     """
     fixed = dict(fixed or {})
@@ -251,13 +259,12 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     if reactions:
         tower_rot = [Rotation(1, {TOWER_BASE_REACTION: 1.0})]
         reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
-    tower_field_names = ("tower_fa", "tower_ss", "tower_torsion")
-    tower_nodes = _nodes_for(modeset, tower_field_names, min_nodes)
-    tower_beam = _quadrature_beam(t, t.tower, modeset, tower_field_names, 0.0)
+    tower_nodes = _nodes_for(modeset, TOWER_FIELDS, min_nodes)
+    tower_beam = _quadrature_beam(t, t.tower, modeset, TOWER_FIELDS, 0.0)
     s_nodes, w_nodes = beam_quadrature(tower_beam.span, tower_nodes)
     fine_s = np.linspace(0, t.tower.length, FINE_POINTS)
     tower_fields = []
-    for fld in ("tower_fa", "tower_ss", "tower_torsion"):
+    for fld in TOWER_FIELDS:
         if fld in modeset:
             modes = modeset[fld]
             dofs = field_dofs(fld, modes.count)
@@ -270,7 +277,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             shapes[fld] = fn
     tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
                                       tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes)
-    bodies.append(tower)
+    bodies.append(tower if damping else _undamped(tower))
     tips["tower"] = ttip
     weights["tower"] = w_nodes
     spans["tower"] = s_nodes
@@ -303,12 +310,11 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     # ---- blades (eq. 26-29: azimuth, precone, pitch; body origin at the root)
     blade_fields = ()
     if include_blades:
-        blade_fields_spec = [(f, modeset[f]) for f in ("blade_flap", "blade_edge") if f in modeset]
+        blade_fields_spec = [(f, modeset[f]) for f in BLADE_FIELDS if f in modeset]
         blade_fields = tuple(f for f, _ in blade_fields_spec)
         L = t.blade.length
-        blade_nodes = _nodes_for(modeset, ("blade_flap", "blade_edge"), min_nodes)
-        blade_beam = _quadrature_beam(t, t.blade, modeset, ("blade_flap", "blade_edge"),
-                                      rotor_speed_for_shapes)
+        blade_nodes = _nodes_for(modeset, BLADE_FIELDS, min_nodes)
+        blade_beam = _quadrature_beam(t, t.blade, modeset, BLADE_FIELDS, rotor_speed_for_shapes)
         sb_nodes, wb_nodes = beam_quadrature(blade_beam.span, blade_nodes)
         fine_b = np.linspace(0, L, FINE_POINTS)
         evaluated = {}
@@ -338,26 +344,16 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                                         tuple(getattr(t.blade, "stiffness_tuners", {}).get(fld, ()))))
             body, btip = build_flexible_body(f"blade{b}", bj, blade_beam, flds,
                                              shortening=geometric_stiffening, min_nodes=blade_nodes)
-            body.nodes = body.nodes - np.array([0.0, 0.0, root])       # origin at the root
-            btip["length"] -= root
-            w_body = wb_nodes
-            if t.tip_mass[b - 1] > 0:
-                body.nodes = np.vstack([body.nodes, [0.0, 0.0, btip["length"]]])
-                body.node_mass = np.append(body.node_mass, t.tip_mass[b - 1])
-                tipPhi = np.zeros((1, 3, body.n_elastic))
-                for i, d in enumerate(body.dofs):
-                    tipPhi[0, :, i] = btip["displacement"].get(d, np.zeros(3))
-                body.shapes = np.concatenate([body.shapes, tipPhi], axis=0)
-                if body.shortening is not None:
-                    body.shortening = np.concatenate([body.shortening, btip["shortening"][1][None]], axis=0)
-                w_body = np.append(wb_nodes, 0.0)
-            bodies.append(body)
+            btip = {**btip, "length": btip["length"] - root}
+            body = _blade_from_root(body, btip, root, t.tip_mass[b - 1])
+            w_body = np.append(wb_nodes, 0.0) if t.tip_mass[b - 1] > 0 else wb_nodes
+            bodies.append(body if damping else _undamped(body))
             tips[f"blade{b}"] = btip
             weights[f"blade{b}"] = w_body
             spans[f"blade{b}"] = sb_nodes
 
-    elastic = [d for f in ("tower_fa", "tower_ss", "tower_torsion") for d in fdofs.get(f, ())]
-    for f in ("blade_flap", "blade_edge"):
+    elastic = [d for f in TOWER_FIELDS for d in fdofs.get(f, ())]
+    for f in BLADE_FIELDS:
         for dofs in fdofs.get(f, []):
             elastic += list(dofs)
     free_all = elastic + [d for d in RIGID_DOFS if d in free]

@@ -50,13 +50,9 @@ from scipy.interpolate import BPoly
 from modesel.candidates.base import ShapeSet
 from modesel.errors import ModeselError
 from modesel.multibody.quadrature import gauss_legendre
+from modesel.vocabulary import DIRECTIONS, FIELD_DIRECTIONS
 
 ILL_CONDITIONED = 1e8
-
-FIELD_DIRECTIONS = {"tower_fa": "fa", "tower_ss": "ss", "blade_flap": "flap",
-                    "blade_edge": "edge", "tower_torsion": "torsion"}
-DIRECTIONS = {"fa": (1.0, 0.0, 0.0), "flap": (1.0, 0.0, 0.0),
-              "ss": (0.0, -1.0, 0.0), "edge": (0.0, 1.0, 0.0)}
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
     [solver]
     method = "auto"                  # auto | RK45 | DOP853 | Radau | BDF | LSODA
     rtol = 1e-8
-    stability_check = true           # refuse statically unstable configurations (api.simulate)
+    stability_check = true           # refuse statically unstable configurations (simulation/stability.py)
 """
 from __future__ import annotations
 
@@ -39,9 +39,10 @@ import numpy as np
 
 from modesel.candidates.base import check_field_modes
 from modesel.errors import ModeselError, unknown_name
-from modesel.modeset import FIELDS, FieldModes, ModeSet
+from modesel.modeset import FieldModes, ModeSet
 from modesel.model.effects import KEYS as EFFECT_KEYS
 from modesel.model.effects import validate as validate_effects
+from modesel.vocabulary import FIELDS, ROTOR_AZIMUTH, SCENE_DOFS, is_translation
 
 TOP_KEYS = ("name", "description", "turbine", "tmax", "dt", "modes", "dofs", "initial", "effects",
             "solver", "outputs", "overrides")
@@ -62,7 +63,6 @@ OVERRIDES = {
 NON_NEGATIVE_OVERRIDES = ("platform_mass", "platform_inertia", "generator_inertia", "hub_radius",
                           "nacelle_yaw_inertia", "nacelle_mass")
 DOF_KEYS = ("free", "fixed", "constant_speed")
-RIGID = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
 INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
                 "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
 SOLVER_KEYS = ("method", "rtol", "atol", "max_step", "stability_check")
@@ -182,22 +182,23 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
                            field="dofs.free")
     free = tuple(free)
     for d in free:
-        if d not in RIGID:
-            raise unknown_name("rigid DOF", d, RIGID, file=file, field="dofs.free")
+        if d not in SCENE_DOFS:
+            raise unknown_name("rigid DOF", d, SCENE_DOFS, file=file, field="dofs.free")
     for key in ("fixed", "constant_speed"):
         if not isinstance(dofs.get(key, {}), dict):
             raise ModeselError(f"must be a table {{DOF = value}}, got {dofs[key]!r}", file=file,
                                field=f"dofs.{key}")
     fixed = {}
     for d, v in dofs.get("fixed", {}).items():
-        if d not in RIGID:
-            raise unknown_name("rigid DOF", d, RIGID, file=file, field="dofs.fixed")
+        if d not in SCENE_DOFS:
+            raise unknown_name("rigid DOF", d, SCENE_DOFS, file=file, field="dofs.fixed")
         v = _number(v, file, f"dofs.fixed.{d}")
-        fixed[d] = np.deg2rad(v) if d in ("GeAz", "DrTr", "Yaw", "PtfmPitch") else v
+        fixed[d] = v if is_translation(d) else np.deg2rad(v)
     speed = {}
     for d, v in dofs.get("constant_speed", {}).items():
-        if d != "GeAz":
-            raise ModeselError("only GeAz can have a constant speed", file=file, field=f"dofs.constant_speed.{d}")
+        if d != ROTOR_AZIMUTH:
+            raise ModeselError(f"only {ROTOR_AZIMUTH} can have a constant speed", file=file,
+                               field=f"dofs.constant_speed.{d}")
         speed[d] = _number(v, file, f"dofs.constant_speed.{d}") * np.pi / 30.0
     initial = {}
     init_tbl = data.get("initial", {})

@@ -18,7 +18,7 @@ import pytest
 from hardcase_tools import modes, scene
 from modesel.cli import main
 from modesel.errors import PhysicallyUnstable, SimulationDiverged
-from modesel.simulation import api
+from modesel.simulation import api, assembly
 from modesel.model.effects.base import Effect
 
 #: nacelle mass between the buckling masses of 1-mode and 2-mode bases
@@ -50,8 +50,8 @@ class Pathological(Effect):
 @pytest.fixture
 def with_effect(monkeypatch):
     def install(kind, t0, accel=0.0):
-        original = api.select_effects
-        monkeypatch.setattr(api, "select_effects",
+        original = assembly.select_effects
+        monkeypatch.setattr(assembly, "select_effects",
                             lambda sc: original(sc) + [Pathological(sc, kind, t0, accel)])
     return install
 

@@ -1,5 +1,5 @@
 """Hard case: tower torsion and a flexible high-speed shaft (the second
-paper's two-spring drivetrain, eq. 17-20 and 47; models.py, effects/drivetrain.py).
+paper's two-spring drivetrain, eq. 17-20 and 47; model/template.py, model/effects/drivetrain.py).
 
 The NREL 5-MW with tower fore-aft, side-side and torsion modes, a free rotor
 and the low- and high-speed shafts as two springs around a rigid gearbox.

@@ -1,0 +1,198 @@
+"""A scene turned into equations and effects: `Built`, made by `build`.
+
+A scene switches on only the DOFs and effects it calls for: fields without
+modes have no states, and an effect that is off is not imported, not
+constructed and never evaluated (`effects.select`).
+
+Right-hand side: M(q) qdd = F(q, qd, t) + loads, where the loads are the
+switched-on effects' generalised forces and node forces (effects/base.py).
+A scene whose effects are only linear spring-dampers (drivetrain) or model
+options (damping, pitch, locked generator) integrates in the engine's
+compiled loop; effects with loads at every step (aero, tower drag,
+generator torque) go through `Built.M_F`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from modesel.modeset import ModeSet
+from modesel.model.effects import select as select_effects
+from modesel.model.effects.base import BuildSpec
+from modesel.model.template import build_turbine
+from modesel.multibody.kane import KaneEquations
+from modesel.multibody.system import Prescribed
+from modesel.simulation.equilibrium import static_equilibrium
+from modesel.simulation.scene import Scene
+from modesel.vocabulary import ROTOR_AZIMUTH, is_blade_field
+
+#: ElastoDyn initial condition of the first mode of each field, and its sign
+#: (ElastoDyn: Q_TSS along -y, TTDspSS along +y); blade fields: every blade
+FIELD_INITIAL = {"tower_fa": ("TTDspFA", 1.0), "tower_ss": ("TTDspSS", -1.0),
+                 "tower_torsion": ("TTDspTwst", 1.0), "blade_flap": ("OoPDefl", 1.0),
+                 "blade_edge": ("IPDefl", 1.0)}
+#: ElastoDyn initial condition of each rigid-body coordinate
+RIGID_INITIAL = {ROTOR_AZIMUTH: "Azimuth", "Yaw": "NacYaw", "PtfmSurge": "PtfmSurge", "PtfmPitch": "PtfmPitch"}
+
+
+class FrameCache:
+    """Body frames (R, vec) at (q_all, qd_all) (`multibody.kinematics.FrameKinematics`),
+    computed once per pair of state arrays: every effect of one right-hand
+    side shares them. The arrays are identified by identity (and held, so
+    the identity cannot be reused); do not modify them in place."""
+
+    def __init__(self, eq: KaneEquations):
+        self.eq = eq
+        self.kinematics = None
+        self.state = (None, None)
+        self.result = None
+
+    def __call__(self, q_all, qd_all):
+        if self.kinematics is None:
+            from modesel.multibody.kinematics import FrameKinematics
+            self.kinematics = FrameKinematics(self.eq)
+        held_q, held_qd = self.state
+        if q_all is not held_q or qd_all is not held_qd:
+            self.result = self.kinematics(q_all, qd_all)
+            self.state = (q_all, qd_all)
+        return self.result
+
+
+@dataclass(frozen=True, eq=False)
+class Built:
+    """A scene turned into equations and effects, ready to integrate or
+    linearise. q0 [m, rad], qd0 [m/s, rad/s]: initial free coordinates;
+    linear: the effects' spring-dampers [(row, column, k, c)]."""
+
+    scene: Scene
+    model: object
+    eq: KaneEquations
+    q0: np.ndarray
+    qd0: np.ndarray
+    effects: list
+    linear: list = field(default_factory=list)
+    frame_cache: FrameCache | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        idx = self.eq.index
+        derived = {"frame_cache": self.frame_cache or FrameCache(self.eq),
+                   "_lin_rows": np.array([idx[r] for r, _, _, _ in self.linear], dtype=int),
+                   "_lin_cols": np.array([idx[c] for _, c, _, _ in self.linear], dtype=int),
+                   "_lin_k": np.array([k for _, _, k, _ in self.linear], float),
+                   "_lin_c": np.array([c for _, _, _, c in self.linear], float)}
+        for name, value in derived.items():      # set once, at construction
+            object.__setattr__(self, name, value)
+
+    # ------------------------------------------------------------- effects
+    def effect(self, name: str):
+        """The switched-on effect `name`, or None."""
+        return next((e for e in self.effects if e.name == name), None)
+
+    @property
+    def acting(self) -> list:
+        """Effects that add loads at every right-hand side."""
+        return [e for e in self.effects if e.loads]
+
+    def frames(self, q_all, qd_all):
+        """Body frames at (q_all, qd_all), shared by the effects (`FrameCache`)."""
+        return self.frame_cache(q_all, qd_all)
+
+    def hub_height(self) -> float:
+        """Height of the rotor apex above the ground at rest [m]."""
+        q_all, qd_all, _ = self.eq.full_state(np.zeros_like(self.q0), np.zeros_like(self.qd0), 0.0)
+        states = self.eq.kinematics(q_all, qd_all)
+        return float(states[self.eq.body_index["hub"]].r[2])
+
+    def loads(self, t, q_all, qd_all):
+        """(generalised forces (n_all,) [N, N m], node forces {body: (N,3)} [N])
+        of all switched-on effects at one state (all coordinates)."""
+        gen = np.zeros(self.eq.n_all)
+        if len(self._lin_rows):
+            np.subtract.at(gen, self._lin_rows, self._lin_k * q_all[self._lin_cols]
+                           + self._lin_c * qd_all[self._lin_cols])
+        nodes = {}
+        for e in self.acting:
+            e(self, t, q_all, qd_all, gen, nodes)
+        return gen, nodes
+
+    def M_F(self, t, q, qd):
+        """M and F of the free coordinates (M qdd = F) with all loads."""
+        if not self.acting and not self.linear:
+            return self.eq.evaluate(q, qd, t)
+        q_all, qd_all, _ = self.eq.full_state(q, qd, t)
+        gen, nodes = self.loads(t, q_all, qd_all)
+        return self.eq.evaluate(q, qd, t, node_forces=nodes or None, generalized=gen)
+
+    def rhs(self):
+        """The right-hand side for `integrate`: compiled when no effect acts
+        at every step, else `M_F`."""
+        if not self.acting and hasattr(self.eq, "compiled_rhs"):
+            return self.eq.compiled_rhs(self.linear)
+        return self.M_F
+
+
+def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:
+    """The scene's active fields, with shapes from `modeset` where it has them."""
+    if modeset is None:
+        return scene.modes
+    fields = {f: modeset[f] if f in modeset else scene.modes[f] for f in scene.fields}
+    return ModeSet(fields)
+
+
+def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = False) -> Built:
+    """Equations and effects of `scene` (with `modeset` overriding its
+    shapes). reactions: add the reaction coordinates of the load outputs
+    (TwrBsMyt, RootMyc<b>; model/template.py). Effect life cycle: effects/base.py."""
+    ms = effective_modeset(scene, modeset)
+    init = scene.initial
+    effects = list(select_effects(scene))
+    spec = BuildSpec(free=list(scene.free), fixed=dict(scene.fixed), prescribed={},
+                     pitch=collective(init.get("BlPitch", 0.0)), damping=False, reactions=reactions)
+    if ROTOR_AZIMUTH in scene.constant_speed:
+        spec.prescribed[ROTOR_AZIMUTH] = Prescribed(init.get("Azimuth", 0.0), scene.constant_speed[ROTOR_AZIMUTH])
+    for e in effects:
+        e.configure(spec)
+    if ROTOR_AZIMUTH not in spec.free and ROTOR_AZIMUTH not in spec.prescribed:
+        spec.fixed.setdefault(ROTOR_AZIMUTH, init.get("Azimuth", 0.0))
+    model = build_turbine(scene.turbine, ms, free=spec.free, fixed=spec.fixed, prescribed=spec.prescribed,
+                          gravity=bool(scene.effect("gravity")),
+                          geometric_stiffening=bool(scene.effect("geometric_stiffening")),
+                          rotor_speed_for_shapes=scene.constant_speed.get(ROTOR_AZIMUTH, init.get("RotSpeed", 0.0)),
+                          pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
+                          reactions=spec.reactions, damping=spec.damping)
+    for e in effects:
+        e.prepare(model)
+    eq = KaneEquations(model.system)
+    q0, qd0 = initial_state(model, init)
+    bare = Built(scene, model, eq, q0, qd0, effects)
+    for e in effects:
+        e.setup(bare)
+    built = replace(bare, linear=[term for e in effects for term in e.linear(bare)])
+    if init.get("equilibrium"):
+        built = replace(built, q0=static_equilibrium(built))
+    return built
+
+
+def initial_state(model, init: dict):
+    """(q0, qd0) of the free coordinates from ElastoDyn-named initial
+    conditions (SI: m, rad, rad/s; FIELD_INITIAL, RIGID_INITIAL)."""
+    pos = {n: i for i, n in enumerate(model.system.free)}
+    q0 = np.zeros(len(pos))
+    qd0 = np.zeros(len(pos))
+    for fld, dofs in model.field_dofs.items():
+        key, sign = FIELD_INITIAL[fld]
+        for group in (dofs if is_blade_field(fld) else [dofs]):    # blade fields: one group per blade
+            if group and group[0] in pos:
+                q0[pos[group[0]]] = sign * init.get(key, 0.0)
+    for dof, key in RIGID_INITIAL.items():
+        if dof in pos:
+            q0[pos[dof]] = init.get(key, 0.0)
+    if ROTOR_AZIMUTH in pos:
+        qd0[pos[ROTOR_AZIMUTH]] = init.get("RotSpeed", 0.0)
+    return q0, qd0
+
+
+def collective(pitch) -> float:
+    """Collective pitch [rad] from a scalar or per-blade values (their mean)."""
+    return float(np.mean(np.atleast_1d(pitch)))

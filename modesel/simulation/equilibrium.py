@@ -1,0 +1,34 @@
+"""Static equilibrium of a built scene: the starting point that removes most
+of the start-up transient (scene `[initial] equilibrium = true`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from modesel.errors import ModeselError
+from modesel.vocabulary import RIGID_BODY_DOFS
+
+
+def static_equilibrium(built, t: float = 0.0) -> np.ndarray:
+    """Free coordinates at which the elastic and drivetrain coordinates of
+    `built` (assembly.Built) have no acceleration (rigid-body DOFs and all
+    rates as in the initial state): the deflection [m, rad] under gravity,
+    centrifugal and aerodynamic loads at t [s]."""
+    import scipy.optimize
+    names = built.model.system.free
+    sel = np.array([i for i, n in enumerate(names) if n not in RIGID_BODY_DOFS], dtype=int)
+    if not len(sel):
+        return built.q0.copy()
+
+    def residual(x):
+        q = built.q0.copy()
+        q[sel] = x
+        M, F = built.M_F(t, q, built.qd0)
+        return np.linalg.solve(M, F)[sel]
+
+    sol = scipy.optimize.root(residual, built.q0[sel], method="hybr", options={"xtol": 1e-10})
+    if not sol.success or not np.all(np.isfinite(sol.x)):
+        raise ModeselError(f"no static equilibrium found ({sol.message})", file=built.scene.path,
+                           field="initial.equilibrium")
+    q = built.q0.copy()
+    q[sel] = sol.x
+    return q

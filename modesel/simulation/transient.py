@@ -1,0 +1,86 @@
+"""Time-domain simulation of a scene: `simulate`."""
+from __future__ import annotations
+
+import re
+import time
+
+import numpy as np
+
+from modesel.errors import ModeselError, SimulationDiverged
+from modesel.modeset import ModeSet
+from modesel.model.outputs import channel_unit, channels
+from modesel.multibody.integrate import choose_method, integrate
+from modesel.multibody.linearize import eigenvalues, linearize, spectrum
+from modesel.simulation.assembly import Built, build
+from modesel.simulation.results import SimulationResult
+from modesel.simulation.scene import Scene
+from modesel.simulation.stability import check_static_stability, coordinate_fields
+from modesel.vocabulary import is_blade_field, is_translation, parse_dof
+
+#: |q| bound of a rigid-body translation [m] and of the other rigid and
+#: drivetrain coordinates [rad] for divergence detection
+TRANSLATION_BOUND = 1e3
+ANGLE_BOUND = 1e6
+
+
+def divergence_bounds(built: Built) -> np.ndarray:
+    """Physical bounds of |q| for divergence detection: half the beam
+    length [m] for elastic tip-normalised coordinates, pi for tower torsion,
+    TRANSLATION_BOUND and ANGLE_BOUND for the others."""
+    t = built.model.turbine
+    out = []
+    for n in built.model.system.free:
+        d = parse_dof(n)
+        if d.kind == "elastic":
+            beam = t.blade if is_blade_field(d.field) else t.tower
+            out.append(np.pi if d.field == "tower_torsion" else 0.5 * beam.length)
+        else:
+            out.append(TRANSLATION_BOUND if is_translation(n) else ANGLE_BOUND)
+    return np.array(out)
+
+
+def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None = None,
+             dt: float | None = None) -> SimulationResult:
+    """Integrate `scene` (with `modeset` overriding its shapes) over tmax [s]
+    with outputs every dt [s] (default: the scene's) and return outputs.
+    The integrator is chosen by the stiffness ratio of the scene linearised
+    at rest (`integrate.choose_method`), after the static stability check."""
+    tmax = scene.tmax if tmax is None else float(tmax)
+    dt = scene.dt if dt is None else float(dt)
+    if tmax <= 0 or dt <= 0:
+        raise ModeselError("tmax and dt must be positive", field="tmax/dt")
+    t0 = time.perf_counter()
+    built = build(scene, modeset, reactions=True)
+    requested = scene.solver.get("method", "auto")
+    names = list(built.model.system.free)
+    n = len(names)
+    if n == 0:
+        raise ModeselError("the scene has no free degree of freedom", file=scene.path, field="dofs")
+    lin = linearize(built.M_F, built.q0 * 0, built.qd0, names)
+    if not all(np.all(np.isfinite(a)) for a in (lin.M, lin.C, lin.K)):
+        raise ModeselError("the equations are not finite at the initial state (check the turbine's "
+                           "properties and the scene's parameters)", file=scene.path)
+    lam = eigenvalues(lin)
+    if scene.solver.get("stability_check", True):
+        check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
+    # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
+    omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
+    method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
+    try:
+        integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
+                          rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
+                          max_step=float(scene.solver.get("max_step", np.inf)), bounds=divergence_bounds(built),
+                          stiffness_ratio=ratio)
+    except SimulationDiverged as exc:     # name the coordinate and the scene
+        reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
+        raise SimulationDiverged(reason, exc.time, file=scene.path) from None
+    wall = time.perf_counter() - t0
+    df = channels(built, integ)
+    df.attrs["units"] = {c: u for c in df.columns if (u := channel_unit(c)) is not None}
+    return SimulationResult(df, n, wall, float(integ.t[-1]), names, method, ratio, integ.n_rhs)
+
+
+def _name(names, index: str) -> str:
+    """Name of free coordinate number `index` (the integrator's message), or the number."""
+    i = int(index)
+    return names[i] if 0 <= i < len(names) else index
