@@ -259,3 +259,28 @@ def test_scipy_paths_of_the_compiled_rhs(turbine):
     assert np.abs(runs["poly"].q - runs["function"].q).max() < 1e-9
     radau = integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01, method="Radau")
     assert np.abs(radau.q - runs["poly"].q).max() < 1e-5
+
+
+def test_lumping_keeps_frames_or_whole_subtrees():
+    """lumping.lump: ground <- a (moving) <- b (constant) <- c (moving) and
+    b <- d (constant). Keeping frames (the kernel), b and d join a; lumping
+    whole subtrees only (the symbolic reduction), only d joins b. The lumped
+    part has the total mass and the centre of mass of its members."""
+    from modesel.multibody.lumping import RigidPart, lump
+    rng = np.random.default_rng(8)
+    parents = [-1, 0, 1, 1]
+    parts = []
+    for m in (2.0, 1.0, 3.0, 0.5):
+        A = rng.normal(size=(3, 3))
+        parts.append(RigidPart(m, rng.normal(size=3), A @ A.T))
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    placements = [None, (turn, np.array([0.0, 0.0, 1.0])), None, (np.eye(3), np.array([0.5, 0.0, 0.0]))]
+    joins = [False, True, False, True]
+    frames = lump(parents, parts, placements, joins, whole_subtrees=False)
+    assert frames.target == [0, 0, 2, 0] and frames.lumped_into(0) == [1, 3]
+    cm_d = turn @ (np.array([0.5, 0.0, 0.0]) + parts[3].cm) + np.array([0.0, 0.0, 1.0])
+    cm_b = turn @ parts[1].cm + np.array([0.0, 0.0, 1.0])
+    expected = (2.0 * parts[0].cm + 1.0 * cm_b + 0.5 * cm_d) / 3.5
+    assert frames.parts[0].mass == 3.5 and np.allclose(frames.parts[0].cm, expected, rtol=0, atol=1e-14)
+    subtrees = lump(parents, parts, placements, joins, whole_subtrees=True)
+    assert subtrees.target == [0, 1, 2, 1] and list(subtrees.parts) == [1]

@@ -12,8 +12,9 @@ eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
   whose equations are needed), so a fixed-base tower costs no Jacobian work;
 - a flexible body without elastic coordinates is a rigid body (its node sums
   A2-A7 formed at pack time, eq. 6-7 about its centre of mass), and rigid
-  bodies on constant joints are lumped into their rigid parent (rigid blades
-  into the hub): same mass, centre of mass and inertia, exact to round-off;
+  bodies on constant joints are lumped into their rigid parent at pack time
+  (rigid blades into the hub, `lumping.py`): same mass, centre of mass and
+  inertia, exact to round-off;
   node polar inertia keeps the flexible form of eq. A with t = [0, e_g]
   (no gyroscopic term, like the reference);
 - flexible-body node sums are formed in the body frame and the 6+ne blocks

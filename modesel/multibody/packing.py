@@ -13,7 +13,7 @@ shortening coordinates; the float pool each flexible body's Phi (N,3,ne),
 S (N,ne,ne), eta (N,ne), K and D, contiguous), and `work`, the arrays the
 kernels write (body frames: R (nb+1,3,3) and vec (nb+1,5,3) = [r, v, w,
 a_bias, alpha_bias] with slot nb the ground; Jacobians; scratch).
-Rigid bodies on constant joints are lumped here (see `kernel`).
+Rigid bodies on constant joints are lumped here (`lumping.lump`).
 """
 from __future__ import annotations
 
@@ -166,7 +166,7 @@ def _lump_rigid_subtrees(eq, bi, bf):
     flexible = [bi[k, KIND] == FLEX for k in range(len(parents))]
     joins = [bi[k, KIND] == RIGID and parents[k] >= 0 and not flexible[parents[k]]
              and not _joint_columns(j, n) for k, (_, j, _) in enumerate(eq.bodies)]
-    parts = [RigidPart(bf[k, MASS], bf[k, CM:CM + 3], bf[k, INERTIA:INERTIA + 9].reshape(3, 3))
+    parts = [RigidPart(float(bf[k, MASS]), bf[k, CM:CM + 3].copy(), bf[k, INERTIA:INERTIA + 9].reshape(3, 3).copy())
              for k in range(len(parents))]
     placements = [constant_placement(b.joint) if joins[k] else None for k, (b, _, _) in enumerate(eq.bodies)]
     result = lump(parents, parts, placements, joins, whole_subtrees=False)
