@@ -11,8 +11,8 @@ Cases on the NREL 5-MW land turbine (ElastoDyn deck in modesel/turbine/data):
 Free decay from a 1 m tower-top (and 1 m / 0.5 m blade-tip flap / edge)
 deflection at 12.1 rpm, gravity, geometric stiffening and structural damping
 on, rtol 1e-8, outputs every 0.01 s. Method as `choose_method` picks it from
-the oscillating modes of the linearised model (DOP853 below a stiffness
-ratio of 200, else Radau).
+the oscillating modes of the linearised model (compiled-DOP853 below a
+stiffness ratio of 200, else Radau).
 
 Timed: the integration loop (`integrate` with the compiled right-hand side),
 median of `--runs` runs after one warm-up run (which also loads or builds
@@ -34,7 +34,7 @@ from modesel.simulation import api
 from modesel.multibody import linearize as lin
 from modesel.turbine.elastodyn import load_turbine
 from modesel.multibody.integrate import choose_method, integrate
-from modesel.multibody.kernel import CompiledRHS
+from modesel.multibody.compiled import CompiledRHS
 from modesel.simulation.scene import Scene
 
 
@@ -64,7 +64,7 @@ def bench(name, modeset, free, initial, turbine, tmax, runs):
     # of the free rotor (gravity on an unbalanced rotor, damping ratio +-1)
     # is not a vibration mode
     omegas = np.array([2 * np.pi * m.frequency_hz for m in lin.modes(model) if abs(m.damping_ratio) < 1.0])
-    method, ratio = choose_method(omegas, "auto")
+    method, ratio = choose_method(omegas, "auto", rhs)
     bounds = api.divergence_bounds(built)
 
     def run():
@@ -89,7 +89,7 @@ def bench(name, modeset, free, initial, turbine, tmax, runs):
     t0 = time.perf_counter()
     api.simulate(scene)
     t_simulate = time.perf_counter() - t0
-    print(f"{name:12s} {len(built.q0):3d} DOF  {method:6s} ratio {ratio:6.1f}  n_rhs {res.n_rhs:6d}  "
+    print(f"{name:12s} {len(built.q0):3d} DOF  {method:15s} ratio {ratio:6.1f}  n_rhs {res.n_rhs:6d}  "
           f"wall {wall:7.4f} s  speed {tmax / wall:7.1f} x real time  {wall / res.n_rhs * 1e6:5.1f} us/rhs  "
           f"M_F {t_python * 1e6:5.1f} us  simulate {t_simulate:7.3f} s", flush=True)
     return wall

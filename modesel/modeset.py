@@ -83,14 +83,6 @@ class ModeSet:
                 raise ModeselError(exc.message, file=file, field=f"fields.{name}.count") from None
         return cls(out)
 
-    def to_json(self, path: str | Path | None = None, **extra) -> str:
-        data = self.to_dict()
-        data.update(extra)
-        text = json.dumps(data, indent=2, sort_keys=True)
-        if path is not None:
-            Path(path).write_text(text + "\n")
-        return text
-
     @classmethod
     def from_json(cls, path: str | Path) -> "ModeSet":
         path = Path(path)

@@ -1,5 +1,5 @@
 """The compiled kernel (kernel.py) against the numpy reference of the Kane
-equations (equations.py): M and F equal to 1e-10 relative at random states,
+equations (kane.py): M and F equal to 1e-10 relative at random states,
 and the compiled DOP853 loop against scipy's solve_ivp on the same equations.
 
 The first run compiles the kernel (numba, cached on disk afterwards)."""
@@ -171,8 +171,8 @@ def test_compiled_dop853_equals_solve_ivp(turbine):
     eq = KaneEquations(system)
     rhs = eq.compiled_rhs()
     q0, qd0 = np.array([1.0, 0.5, 0.0]), np.array([0.0, 0.0, 1.27])
-    compiled = integrate(rhs, q0, qd0, 5.0, 0.01)
-    scipy_run = integrate(lambda t, q, qd: eq.evaluate_reference(q, qd, t), q0, qd0, 5.0, 0.01)
+    compiled = integrate(rhs, q0, qd0, 5.0, 0.01, method="compiled-DOP853")
+    scipy_run = integrate(lambda t, q, qd: eq.evaluate_reference(q, qd, t), q0, qd0, 5.0, 0.01, method="DOP853")
     assert compiled.n_rhs == scipy_run.n_rhs
     assert np.array_equal(compiled.t, scipy_run.t)
     assert np.abs(compiled.q - scipy_run.q).max() < 1e-9
@@ -187,11 +187,13 @@ def test_compiled_divergence_detected(turbine):
     model.system.gravity *= 1e4
     rhs = KaneEquations(model.system).compiled_rhs()
     with pytest.raises(SimulationDiverged) as info:
-        integrate(rhs, np.array([0.1]), np.array([0.0]), 20.0, 0.01, bounds=np.array([40.0]))
+        integrate(rhs, np.array([0.1]), np.array([0.0]), 20.0, 0.01, bounds=np.array([40.0]),
+                  method="compiled-DOP853")
     assert 0.0 < info.value.time < 20.0
     rhs = KaneEquations(build_turbine(turbine, ms).system).compiled_rhs()
     with pytest.raises(SimulationDiverged) as info:
-        integrate(rhs, np.array([1.0]), np.array([0.0]), 5.0, 0.01, bounds=np.array([0.5]))
+        integrate(rhs, np.array([1.0]), np.array([0.0]), 5.0, 0.01, bounds=np.array([0.5]),
+                  method="compiled-DOP853")
     assert "beyond its physical bound" in str(info.value)
 
 
@@ -203,16 +205,16 @@ def test_linear_solvers():
     b = rng.normal(size=6)
     spd = A @ A.T + np.eye(6)
     x = b.copy()
-    assert kernel._cholesky_solve(spd.copy(), x)
+    assert kernel.cholesky_solve(spd.copy(), x)
     assert np.allclose(spd @ x, b, rtol=0, atol=1e-12)
     indefinite = A + A.T
-    assert not kernel._cholesky_solve(indefinite.copy(), b.copy())
+    assert not kernel.cholesky_solve(indefinite.copy(), b.copy())
     x = b.copy()
-    assert kernel._lu_solve(indefinite.copy(), x)
+    assert kernel.lu_solve(indefinite.copy(), x)
     assert np.allclose(indefinite @ x, b, rtol=0, atol=1e-10)
     singular = A.copy()
     singular[3] = 0.0
-    assert not kernel._lu_solve(singular, b.copy())
+    assert not kernel.lu_solve(singular, b.copy())
 
 
 def test_reaction_loads_match_reference(turbine):
@@ -252,7 +254,33 @@ def test_scipy_paths_of_the_compiled_rhs(turbine):
     for name, presc in (("poly", poly), ("function", Prescribed(function=poly.__call__))):
         rhs = KaneEquations(build_turbine(turbine, ms, prescribed={"GeAz": presc}).system).compiled_rhs()
         assert rhs.compilable == (name == "poly")
-        runs[name] = integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01)
+        method = "compiled-DOP853" if rhs.compilable else "DOP853"
+        runs[name] = integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01, method=method)
     assert np.abs(runs["poly"].q - runs["function"].q).max() < 1e-9
     radau = integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01, method="Radau")
     assert np.abs(radau.q - runs["poly"].q).max() < 1e-5
+
+
+def test_lumping_keeps_frames_or_whole_subtrees():
+    """lumping.lump: ground <- a (moving) <- b (constant) <- c (moving) and
+    b <- d (constant). Keeping frames (the kernel), b and d join a; lumping
+    whole subtrees only (the symbolic reduction), only d joins b. The lumped
+    part has the total mass and the centre of mass of its members."""
+    from modesel.multibody.lumping import RigidPart, lump
+    rng = np.random.default_rng(8)
+    parents = [-1, 0, 1, 1]
+    parts = []
+    for m in (2.0, 1.0, 3.0, 0.5):
+        A = rng.normal(size=(3, 3))
+        parts.append(RigidPart(m, rng.normal(size=3), A @ A.T))
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    placements = [None, (turn, np.array([0.0, 0.0, 1.0])), None, (np.eye(3), np.array([0.5, 0.0, 0.0]))]
+    joins = [False, True, False, True]
+    frames = lump(parents, parts, placements, joins, whole_subtrees=False)
+    assert frames.target == [0, 0, 2, 0] and frames.lumped_into(0) == [1, 3]
+    cm_d = turn @ (np.array([0.5, 0.0, 0.0]) + parts[3].cm) + np.array([0.0, 0.0, 1.0])
+    cm_b = turn @ parts[1].cm + np.array([0.0, 0.0, 1.0])
+    expected = (2.0 * parts[0].cm + 1.0 * cm_b + 0.5 * cm_d) / 3.5
+    assert frames.parts[0].mass == 3.5 and np.allclose(frames.parts[0].cm, expected, rtol=0, atol=1e-14)
+    subtrees = lump(parents, parts, placements, joins, whole_subtrees=True)
+    assert subtrees.target == [0, 1, 2, 1] and list(subtrees.parts) == [1]

@@ -57,7 +57,7 @@ import numpy as np
 from modesel.candidates.base import mode_shapes, shape_breakpoints
 from modesel.modeset import ModeSet
 from modesel.multibody.bodies import Joint, RigidBody, Rotation
-from modesel.multibody.kane import elementary_rotation
+from modesel.multibody.rotations import elementary_rotation
 from modesel.model.flexible_beam import FieldShapes, beam_quadrature, build_flexible_body, evaluate_field, tip_joint
 from modesel.multibody.system import System
 from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, TOWER_BASE_REACTION, TOWER_FIELDS,

@@ -1,36 +1,57 @@
-"""Time integration of M(q) qdd = F(q, qd, t) with SciPy (`solve_ivp`).
+"""Time integration of M(q) qdd = F(q, qd, t): one front function,
+`integrate`, and named methods (`METHODS`), each reported by its name:
 
-Method choice ("auto"): the scene is linearised at its initial state; with
-stiffness ratio r = omega_max / omega_min of the non-zero natural
-frequencies and N = omega_max * tmax / (2 pi) cycles of the fastest mode,
-an explicit Runge-Kutta (DOP853) is used when r < 200, else the implicit
-Radau IIA method, whose step is not limited by the fastest mode. The choice
-and the numbers behind it are returned with the result.
+- "compiled-DOP853": Dormand-Prince 8(5,3) with scipy's DOP853 step
+  control, initial step and dense output, run entirely in the numba kernel
+  (`kernel.dop853`) on a `CompiledRHS` whose prescribed coordinates are
+  polynomial in t (`CompiledRHS.compilable`); its outputs equal scipy's
+  DOP853 to round-off;
+- scipy's methods by their own names ("DOP853", "Radau", "RK45", "BDF",
+  "LSODA") through `solve_ivp`, on any callable (t, q, qd) -> (M, F), or on
+  a `CompiledRHS`, whose accelerations are then solved in the kernel.
+
+Method choice (`choose_method`, "auto"): the scene is linearised at its
+initial state; with stiffness ratio r = omega_max / omega_min of the
+non-zero natural frequencies and N = omega_max * tmax / (2 pi) cycles of the
+fastest mode, an explicit Runge-Kutta method is used when r < 200
+("compiled-DOP853" when the right-hand side runs compiled, else "DOP853"),
+else the implicit Radau IIA method, whose step is not limited by the fastest
+mode. The choice and the numbers behind it are returned with the result.
 
 Divergence detection: non-finite accelerations, states beyond physical bounds
 (elastic tip displacement above half the beam length, rigid rates above
 1e3 rad/s) or a step-size collapse stop the run with `SimulationDiverged`
 (reason, time).
-
-Speed: with a `kernel.CompiledRHS` (`KaneEquations.compiled_rhs`) and DOP853
-the whole loop runs compiled (`kernel.dop853`: scipy's DOP853 step control,
-initial step and dense output, so the outputs equal solve_ivp's to round-off);
-other methods call scipy with the compiled accelerations. Any other
-callable (t, q, qd) -> (M, F) goes through scipy unchanged.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.integrate._ivp import dop853_coefficients as _dop
+from scipy.integrate import DOP853, solve_ivp
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.multibody import kernel
+from modesel.multibody.compiled import CompiledRHS
 
-_DOP853_TABLE = (np.ascontiguousarray(_dop.A), np.ascontiguousarray(_dop.B), np.ascontiguousarray(_dop.C),
-                 np.ascontiguousarray(_dop.E3), np.ascontiguousarray(_dop.E5), np.ascontiguousarray(_dop.D))
+COMPILED_DOP853 = "compiled-DOP853"
+SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+METHODS = (COMPILED_DOP853,) + SCIPY_METHODS
+
+
+def _dop853_table():
+    """Butcher tableau of scipy's DOP853 with its extra dense-output stages
+    (A 16x16, B, C 16, E3, E5, D), from the public class attributes."""
+    n = DOP853.n_stages
+    A = np.zeros((n + 1 + len(DOP853.A_EXTRA), n + 1 + len(DOP853.A_EXTRA)))
+    A[:n, :n] = DOP853.A
+    A[n, :n] = DOP853.B                         # stage n: the first stage of the next step (FSAL)
+    A[n + 1:, :] = DOP853.A_EXTRA
+    C = np.concatenate([DOP853.C, [1.0], DOP853.C_EXTRA])
+    return tuple(np.ascontiguousarray(a, float) for a in (A, DOP853.B, C, DOP853.E3, DOP853.E5, DOP853.D))
+
+
+_DOP853_TABLE = _dop853_table()
 _REASONS = {kernel.NON_FINITE_STATE: "non-finite state",
             kernel.SINGULAR: "singular mass matrix",
             kernel.NON_FINITE_ACC: "non-finite acceleration"}
@@ -44,6 +65,10 @@ class _Diverged(Exception):
 
 @dataclass
 class Integration:
+    """Outputs at t (n_t,) [s]: q, qd (n_t, n); `method` the name of the
+    method that ran (one of `METHODS`), the stiffness ratio it was chosen
+    by, the number of right-hand-side evaluations."""
+
     t: np.ndarray
     q: np.ndarray          # (n_t, n)
     qd: np.ndarray
@@ -53,21 +78,31 @@ class Integration:
     info: dict = field(default_factory=dict)
 
 
-def choose_method(omegas: np.ndarray, requested: str = "auto") -> tuple[str, float]:
-    """(method, stiffness ratio) from the natural frequencies [rad/s]."""
+def runs_compiled(rhs_M_F) -> bool:
+    """Whether `rhs_M_F` can be integrated by "compiled-DOP853"."""
+    return isinstance(rhs_M_F, CompiledRHS) and rhs_M_F.compilable
+
+
+def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tuple[str, float]:
+    """(method, stiffness ratio) from the natural frequencies [rad/s]:
+    `requested` unless "auto"; "auto" gives "Radau" for a ratio of 200 or
+    more, else "compiled-DOP853" when `rhs` runs compiled, else "DOP853"."""
     w = np.abs(omegas[np.abs(omegas) > 1e-6])
     ratio = float(w.max() / w.min()) if len(w) else 1.0
     if requested != "auto":
         return requested, ratio
-    return ("DOP853" if ratio < 200.0 else "Radau"), ratio
+    if ratio >= 200.0:
+        return "Radau", ratio
+    return (COMPILED_DOP853 if runs_compiled(rhs) else "DOP853"), ratio
 
 
 def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=None, max_step=np.inf,
               bounds=None, stiffness_ratio=float("nan")) -> Integration:
-    """Integrate from (q0, qd0) over [0, tmax], output every dt.
+    """Integrate from (q0, qd0) over [0, tmax] [s], output every dt [s],
+    with the named `method` (one of `METHODS`).
 
-    rhs_M_F(t, q, qd) -> (M, F). bounds: (n,) maximum |q| per coordinate
-    (inf = unbounded) used for divergence detection."""
+    rhs_M_F(t, q, qd) -> (M, F), or a `CompiledRHS`. bounds: (n,) maximum
+    |q| per coordinate (inf = unbounded) used for divergence detection."""
     n = len(q0)
     t_eval = np.arange(0.0, tmax + 0.5 * dt, dt)
     t_eval = t_eval[t_eval <= tmax + 1e-12]
@@ -76,9 +111,13 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
     if atol is None:
         atol = 1e-10
     x0 = np.concatenate([q0, qd0]).astype(float)
-    compiled = isinstance(rhs_M_F, kernel.CompiledRHS)
-    if compiled and method == "DOP853" and rhs_M_F.compilable:
+    if method == COMPILED_DOP853:
+        if not runs_compiled(rhs_M_F):
+            raise ModeselError(f"{COMPILED_DOP853} needs a compiled right-hand side with prescribed motion "
+                               "polynomial in time (no load effect acting at every step)",
+                               field="solver.method")
         return _integrate_compiled(rhs_M_F, x0, t_eval, float(tmax), rtol, atol, max_step, qb, stiffness_ratio)
+    compiled = isinstance(rhs_M_F, CompiledRHS)
 
     def accelerations(t, q, qd):
         if compiled:
@@ -121,7 +160,8 @@ def _beyond(i):
 
 
 def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, stiffness_ratio) -> Integration:
-    """DOP853 entirely in the kernel (same algorithm and tolerances as solve_ivp)."""
+    """compiled-DOP853: DOP853 entirely in the kernel (same algorithm and
+    tolerances as solve_ivp)."""
     nx = len(x0)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)     # as scipy validate_tol
     atol = np.broadcast_to(np.asarray(atol, float), (nx,)).copy()
@@ -139,5 +179,5 @@ def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, sti
     if code != kernel.OK:
         raise SimulationDiverged(_REASONS[code], float(t_stop))
     n = nx // 2
-    return Integration(t_eval[:len(Y)].copy(), Y[:, :n].copy(), Y[:, n:].copy(), "DOP853",
+    return Integration(t_eval[:len(Y)].copy(), Y[:, :n].copy(), Y[:, n:].copy(), COMPILED_DOP853,
                        stiffness_ratio, int(nfev))

@@ -22,44 +22,25 @@ so a 40-DOF model is as easy as a 3-DOF one.
 
 Two implementations of the same equations: this module's numpy code is the
 readable reference (`evaluate_full_reference`, `evaluate_reference`); the
-numba kernel of `kernel.py` (packed once, on first use) serves `evaluate`,
-`evaluate_full` and `compiled_rhs`, and tests hold the two equal to 1e-10.
-The system must not be modified after the first evaluation.
+numba kernel of `kernel.py` (packed once, on first use, by `packing.pack`)
+serves `evaluate`, `evaluate_full` and `compiled_rhs` (`compiled.CompiledRHS`),
+and tests hold the two equal to 1e-10. The system must not be modified
+after the first evaluation.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
-from modesel.multibody import kernel
 from modesel.multibody.bodies import FlexibleBody
+from modesel.multibody.compiled import CompiledRHS
+from modesel.multibody.kinematics import deformed_nodes, node_kinematics
 from modesel.multibody.packing import Packed, pack
+from modesel.multibody.rotations import cross, elementary_rotation, skew
 from modesel.multibody.system import System
-
-
-def skew(v):
-    """Skew-symmetric matrix [v~] with [v~] w = v x w."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def cross(a, b):
-    """Cross product of 3-vectors or (N,3) arrays (faster than np.cross)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def elementary_rotation(axis: int, angle: float) -> np.ndarray:
-    """Rotation matrix (body -> parent) about x (0), y (1) or z (2)."""
-    c, s = np.cos(angle), np.sin(angle)
-    if axis == 0:
-        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == 1:
-        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-
 
 _E = np.eye(3)
 
@@ -78,7 +59,12 @@ class BodyState:
     alpha_bias: np.ndarray
 
 
-class _CompiledJoint:
+class JointArrays:
+    """A `Joint` over the coordinate vector (n coordinates, `index` name ->
+    position): offset (3,), R0 (3,3), translation matrix A (3, n) [m per
+    unit q], rotations [(axis, coefficients (n,), offset)], shortening
+    (axis (3,), coordinate indices, G) or None."""
+
     def __init__(self, joint, index, n):
         self.parent = joint.parent
         self.offset = np.asarray(joint.offset, float)
@@ -100,7 +86,11 @@ class _CompiledJoint:
             self.short = (np.asarray(sh.axis, float), idx, np.asarray(sh.matrix, float))
 
 
-class _CompiledFlex:
+class FlexibleArrays:
+    """A `FlexibleBody`'s node data as arrays: idx (ne,) positions of its
+    elastic coordinates, s0 (N,3), m (N,), axis, Phi (N,3,ne), S (N,ne,ne)
+    or None, eta (N,ne) or None, Jp (N,) or None, K and D (ne,ne), mass."""
+
     def __init__(self, body: FlexibleBody, index):
         self.idx = np.array([index[d] for d in body.dofs], dtype=int)
         ne = len(self.idx)
@@ -117,6 +107,15 @@ class _CompiledFlex:
         self.mass = float(self.m.sum())
 
 
+class BodyArrays(NamedTuple):
+    """One body of `KaneEquations.bodies`: its description and its arrays
+    (flexible None for a rigid body)."""
+
+    body: object
+    joint: JointArrays
+    flexible: FlexibleArrays | None
+
+
 class KaneEquations:
     """Produces M(q) and F(q, qd, t) of a `System` (first paper eq. 22).
 
@@ -125,6 +124,11 @@ class KaneEquations:
     External loads: `node_forces` {body name: (N, 3) inertial-frame forces
     on the flexible body's nodes [N]} and `generalized` (n_all,) forces [N or N m]
     added to the right-hand side (eq. 9-10, 19).
+
+    Public attributes: `names`, `index` (coordinate name -> position),
+    `n_all`, `free_idx`, `presc_idx`, `fixed_values` (n_all,), `gravity`
+    (3,) [m/s^2], `bodies` (list of `BodyArrays`, parents first),
+    `body_index` (body name -> position), `n_bodies`.
     """
 
     def __init__(self, system: System):
@@ -134,17 +138,18 @@ class KaneEquations:
         self.n_all = len(self.names)
         self.free_idx = np.array([self.index[n] for n in system.free], dtype=int)
         self.presc_idx = np.array([self.index[n] for n in system.prescribed], dtype=int)
-        self.presc = list(system.prescribed.values())
+        self._prescribed = list(system.prescribed.values())
         self.fixed_values = np.zeros(self.n_all)
         for n, v in system.fixed.items():
             self.fixed_values[self.index[n]] = v
         self.gravity = np.array([0.0, 0.0, -system.gravity])
         self.bodies = []
         for b in system.bodies:
-            joint = _CompiledJoint(b.joint, self.index, self.n_all)
-            flex = _CompiledFlex(b, self.index) if isinstance(b, FlexibleBody) else None
-            self.bodies.append((b, joint, flex))
+            joint = JointArrays(b.joint, self.index, self.n_all)
+            flex = FlexibleArrays(b, self.index) if isinstance(b, FlexibleBody) else None
+            self.bodies.append(BodyArrays(b, joint, flex))
         self.body_index = {b.name: i for i, b in enumerate(system.bodies)}
+        self.n_bodies = len(self.bodies)
 
     # ------------------------------------------------------------------ state
     def full_state(self, q, qd, t):
@@ -154,9 +159,23 @@ class KaneEquations:
         qdd_presc = np.zeros(self.n_all)
         q_all[self.free_idx] = q
         qd_all[self.free_idx] = qd
-        for i, p in zip(self.presc_idx, self.presc):
-            q_all[i], qd_all[i], qdd_presc[i] = p(t)
+        for i, (qp, qdp, qddp) in zip(self.presc_idx, self.prescribed_state(t)):
+            q_all[i], qd_all[i], qdd_presc[i] = qp, qdp, qddp
         return q_all, qd_all, qdd_presc
+
+    def prescribed_state(self, t) -> np.ndarray:
+        """(n_prescribed, 3): q, qd, qdd of the prescribed coordinates
+        (order of `presc_idx`) at time t [s]."""
+        return np.array([p(t) for p in self._prescribed], float).reshape(-1, 3)
+
+    @property
+    def prescribed_polynomials(self) -> np.ndarray | None:
+        """(n_prescribed, 3): (value, rate, accel) of the prescribed
+        coordinates, q(t) = value + rate t + 1/2 accel t^2; None when one is
+        a Python function of time."""
+        if any(p.function is not None for p in self._prescribed):
+            return None
+        return np.array([[p.value, p.rate, p.accel] for p in self._prescribed], float).reshape(-1, 3)
 
     # ------------------------------------------------------------- kinematics
     def kinematics(self, q, qd):
@@ -213,26 +232,10 @@ class KaneEquations:
 
     def node_kinematics(self, name, state: BodyState, q, qd):
         """Inertial positions (N,3), velocities (N,3) and local-frame
-        deformation of a flexible body's nodes."""
-        _, _, f = self.bodies[self.body_index[name]]
-        s, B_loc, _ = self._deformed(f, q, qd)
-        p = s @ state.R.T
-        B = np.einsum("ij,kjl->kil", state.R, B_loc)
-        vel = state.v + cross(state.w, p) + B @ qd[f.idx]
-        return state.r + p, vel, s
-
-    @staticmethod
-    def _deformed(f, q, qd):
-        qe, qde = q[f.idx], qd[f.idx]
-        s = f.s0 + f.Phi @ qe
-        B_loc = f.Phi.copy()
-        acc_loc = np.zeros_like(f.s0)
-        if f.S is not None:
-            Sq = f.S @ qe                                   # (N, ne)
-            s = s - 0.5 * (Sq @ qe)[:, None] * f.axis
-            B_loc = B_loc - f.axis[None, :, None] * Sq[:, None, :]
-            acc_loc = -np.einsum("kij,i,j->k", f.S, qde, qde)[:, None] * f.axis
-        return s, B_loc, acc_loc
+        deformation of a flexible body's nodes (`kinematics.node_kinematics`)."""
+        f = self.bodies[self.body_index[name]].flexible
+        return node_kinematics(state.R, state.r, state.v, state.w, f.s0, f.Phi, f.S, f.axis,
+                               q[f.idx], qd[f.idx])
 
     # -------------------------------------------------------- compiled kernel
     @cached_property
@@ -249,18 +252,18 @@ class KaneEquations:
         return pack(self, active)
 
     @cached_property
-    def _kernel_all_rows(self) -> kernel.CompiledRHS:
-        return kernel.CompiledRHS(self, all_rows=True)
+    def _kernel_all_rows(self) -> CompiledRHS:
+        return CompiledRHS(self, all_rows=True)
 
     @cached_property
-    def _kernel_free_rows(self) -> kernel.CompiledRHS:
-        return kernel.CompiledRHS(self)
+    def _kernel_free_rows(self) -> CompiledRHS:
+        return CompiledRHS(self)
 
-    def compiled_rhs(self, linear=(), *, all_rows=False) -> kernel.CompiledRHS:
+    def compiled_rhs(self, linear=(), *, all_rows=False) -> CompiledRHS:
         """Compiled right-hand side of the free coordinates for `integrate`
-        (see `kernel.CompiledRHS`; `linear` adds generalised spring-dampers;
+        (see `compiled.CompiledRHS`; `linear` adds generalised spring-dampers;
         all_rows for `reactions` of fixed coordinates)."""
-        return kernel.CompiledRHS(self, linear, all_rows=all_rows)
+        return CompiledRHS(self, linear, all_rows=all_rows)
 
     # -------------------------------------------------------------- equations
     def evaluate_full(self, q, qd, node_forces=None, generalized=None, states=None):
@@ -295,7 +298,7 @@ class KaneEquations:
         """Flexible body contribution, eq. 11-19 with Appendix A integrals
         summed over the nodes at the deformed configuration."""
         ne = len(f.idx)
-        s, B_loc, acc_loc = self._deformed(f, q, qd)
+        s, B_loc, acc_loc = deformed_nodes(f.s0, f.Phi, f.S, f.axis, q[f.idx], qd[f.idx])
         R = st.R
         p = s @ R.T                                          # (N,3) inertial axes
         B = np.einsum("ij,kjl->kil", R, B_loc)               # (N,3,ne)

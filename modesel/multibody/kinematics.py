@@ -1,22 +1,24 @@
-"""Fast kinematics for loads that depend on the motion (aerodynamics, tower
-drag): body frames and the positions/velocities of points on flexible bodies.
+"""Kinematics of body frames and of points on flexible bodies, for the
+Kane equations and for loads that depend on the motion (aerodynamics, tower
+drag).
+
+Node kinematics of a flexible body (first paper Appendix D4, second paper
+eq. 3), body frame (s, B_loc) and inertial axes (p, v_p):
+
+    s      = s0 + Phi q_e - 1/2 (q_e^T S_k q_e) e_axis
+    B_loc  = ds/dq_e = Phi - e_axis (S_k q_e)^T
+    p      = r + R s
+    v_p    = v + w x (R s) + R B_loc qd_e
+
+`deformed_nodes` and `node_kinematics` are the numpy reference (used by
+`KaneEquations`); `points` is their compiled twin (numba), used through
+`PointSet` on the quadrature nodes or other stations such as the AeroDyn
+nodes. tests/test_turbine.py holds the two equal.
 
 `FrameKinematics(eq)(q_all, qd_all)` returns every body frame's rotation R
 and origin position r, velocity v, angular velocity w (inertial axes),
-computed by the engine's compiled recursive kinematics (`kernel.kinematics`,
-the compiled twin of `KaneEquations.kinematics`) on its own packed arrays.
-
-`PointSet` holds points of one flexible body (its quadrature nodes or
-other stations such as the AeroDyn nodes): undeformed positions s0, shapes
-Phi, axial-shortening matrices S. `points(...)` gives their inertial
-positions and velocities, the compiled twin of
-`KaneEquations.node_kinematics`:
-
-    s   = s0 + Phi q_e - 1/2 (q_e^T S q_e) e_axis          (body frame)
-    p   = r + R s
-    v_p = v + w x (R s) + R (Phi - e_axis (S q_e)^T) qd_e
-
-tests/test_turbine.py holds both equal to the numpy reference.
+computed by the compiled recursive kinematics (`kernel.kinematics`, the
+twin of `KaneEquations.kinematics`) on its own packed arrays.
 """
 from __future__ import annotations
 
@@ -26,6 +28,37 @@ import numpy as np
 from numba import njit
 
 from modesel.multibody import kernel
+from modesel.multibody.packing import pack
+from modesel.multibody.rotations import cross
+
+
+def deformed_nodes(s0, Phi, S, axis, qe, qde):
+    """Body-frame node positions s (N,3) [m], partial velocities
+    B_loc = ds/dq_e (N,3,ne) and the acceleration at qdd_e = 0,
+    -(qd_e^T S_k qd_e) e_axis (N,3), of a flexible body with nodes s0 (N,3),
+    shapes Phi (N,3,ne), shortening matrices S (N,ne,ne) (None: none) along
+    `axis`, at elastic state (qe, qde) (first paper D4)."""
+    s = s0 + Phi @ qe
+    B_loc = Phi.copy()
+    acc_loc = np.zeros_like(s0)
+    if S is not None:
+        Sq = S @ qe                                   # (N, ne)
+        s = s - 0.5 * (Sq @ qe)[:, None] * axis
+        B_loc = B_loc - axis[None, :, None] * Sq[:, None, :]
+        acc_loc = -np.einsum("kij,i,j->k", S, qde, qde)[:, None] * axis
+    return s, B_loc, acc_loc
+
+
+def node_kinematics(R, r, v, w, s0, Phi, S, axis, qe, qde):
+    """Inertial positions (N,3) [m] and velocities (N,3) [m/s] of a
+    flexible body's nodes, and their body-frame positions s (N,3), for a
+    body frame with rotation R, origin r, velocity v and angular velocity w
+    (see `deformed_nodes` for the rest)."""
+    s, B_loc, _ = deformed_nodes(s0, Phi, S, axis, qe, qde)
+    p = s @ R.T
+    B = np.einsum("ij,kjl->kil", R, B_loc)
+    vel = v + cross(w, p) + B @ qde
+    return r + p, vel, s
 
 
 class FrameKinematics:
@@ -35,7 +68,7 @@ class FrameKinematics:
         active = np.zeros(eq.n_all, bool)
         active[eq.free_idx] = True
         active[eq.presc_idx] = True
-        self.packed = kernel.pack(eq, active)
+        self.packed = pack(eq, active)
         self.index = dict(eq.body_index)
 
     def __call__(self, q_all, qd_all):
@@ -92,7 +125,8 @@ class PointSet:
 @njit(cache=True)
 def points(R, vec, s0, Phi, S, axis, qe, qde, pos, vel):
     """Positions `pos` and velocities `vel` (M,3) of points on a flexible
-    body with frame (R, vec = [r, v, w, ...]) at elastic state (qe, qde)."""
+    body with frame (R, vec = [r, v, w, ...]) at elastic state (qe, qde):
+    the compiled twin of `node_kinematics` (S zeros: no shortening)."""
     ne = qe.shape[0]
     r, v, w = vec[0], vec[1], vec[2]
     s = np.empty(3)

@@ -13,7 +13,7 @@ shortening coordinates; the float pool each flexible body's Phi (N,3,ne),
 S (N,ne,ne), eta (N,ne), K and D, contiguous), and `work`, the arrays the
 kernels write (body frames: R (nb+1,3,3) and vec (nb+1,5,3) = [r, v, w,
 a_bias, alpha_bias] with slot nb the ground; Jacobians; scratch).
-Rigid bodies on constant joints are lumped here (see `kernel`).
+Rigid bodies on constant joints are lumped here (`lumping.lump`).
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS
                                           INERTIA, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE, NNODE,
                                           NODE0, NROT, NSH, OFF, PARENT, PHI0, POLAR, R0, RIGID, ROT0, S0,
                                           SH0, SH_E, SKIP)
+from modesel.multibody.lumping import RigidPart, constant_placement, lump, rigid_equivalent
 
 
 @dataclass
@@ -111,13 +112,10 @@ def pack(eq, active=None) -> Packed:
         bi[k, HAS_JP] = has_jp
         if ne == 0:
             # rigid equivalent of the node sums (A2-A7 at q_e = 0): exact
-            m = f.mass
-            c = (f.m @ f.s0) / m if m > 0 else np.zeros(3)
-            d = f.s0 - c
-            I = (f.m @ np.einsum("ki,ki->k", d, d)) * np.eye(3) - (d * f.m[:, None]).T @ d
-            bf[k, MASS] = m
-            bf[k, CM:CM + 3] = c
-            bf[k, INERTIA:INERTIA + 9] = I.ravel()
+            part = rigid_equivalent(f.s0, f.m)
+            bf[k, MASS] = part.mass
+            bf[k, CM:CM + 3] = part.cm
+            bf[k, INERTIA:INERTIA + 9] = part.inertia.ravel()
             if has_jp:
                 bf[k, POLAR:POLAR + 9] = (float(f.Jp.sum()) * np.outer(f.axis, f.axis)).ravel()
             bi[k, KIND] = RIGID if cols else SKIP
@@ -146,7 +144,6 @@ def pack(eq, active=None) -> Packed:
             fpool.append(np.ascontiguousarray(arr, float).ravel())
             size += fpool[-1].size
     _lump_rigid_subtrees(eq, bi, bf)
-    nrot = max(len(rot_axis), 1)
     n_max = max([bi[k, NNODE] for k, _ in flex_nodes] + [1])
     nrot = max(len(rot_axis), 1)
     rc = np.zeros((nrot, n))
@@ -158,62 +155,32 @@ def pack(eq, active=None) -> Packed:
     return Packed(data, work, n, nb, node_start)
 
 
-def _constant_pose(joint):
-    """(offset, rotation) of a joint that depends on no coordinate, else None."""
-    if joint.has_A or joint.short is not None or any(np.any(c != 0.0) for _, c, _ in joint.rotations):
-        return None
-    Rc = joint.R0.copy()
-    for axis, _, off in joint.rotations:
-        c, s = np.cos(off), np.sin(off)
-        i1, i2 = ((1, 2), (2, 0), (0, 1))[axis]
-        Rot = np.eye(3)
-        Rot[i1, i1], Rot[i1, i2], Rot[i2, i1], Rot[i2, i2] = c, -s, s, c
-        Rc = Rc @ Rot
-    return joint.offset.copy(), Rc
-
-
 def _lump_rigid_subtrees(eq, bi, bf):
-    """Lump every rigid body attached by a constant joint to a rigid ancestor
-    (e.g. rigid blades on the hub) into that ancestor: same total mass, centre
-    of mass, inertia tensor and polar tensor (exact). The lumped body keeps
-    its kinematics only for its node forces (kind LUMPED)."""
-    nb = len(eq.bodies)
-    target = list(range(nb))
-    pose = [(np.zeros(3), np.eye(3)) for _ in range(nb)]       # in the target frame
-    flexible = [f is not None and len(f.idx) > 0 for _, _, f in eq.bodies]
-    # accumulate mass, first moment and inertia about the origin of each target
-    mass = bf[:, MASS].copy()
-    first = mass[:, None] * bf[:, CM:CM + 3]
-    second = np.zeros((nb, 3, 3))
-    for k in range(nb):
-        c = bf[k, CM:CM + 3]
-        second[k] = bf[k, INERTIA:INERTIA + 9].reshape(3, 3) + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
-    changed = set()
-    for k, (_, j, _) in enumerate(eq.bodies):
-        p = bi[k, PARENT]
-        cp = _constant_pose(j)
-        if bi[k, KIND] != RIGID or p < 0 or flexible[p] or cp is None:
-            continue
-        t = target[p]
-        rp, Rp = pose[p]
-        r, R = rp + Rp @ cp[0], Rp @ cp[1]
-        target[k], pose[k] = t, (r, R)
-        c = r + R @ bf[k, CM:CM + 3]
-        I = R @ bf[k, INERTIA:INERTIA + 9].reshape(3, 3) @ R.T
-        mass[t] += mass[k]
-        first[t] += mass[k] * c
-        second[t] += I + mass[k] * (c @ c * np.eye(3) - np.outer(c, c))
-        P = bf[t, POLAR:POLAR + 9].reshape(3, 3) + R @ bf[k, POLAR:POLAR + 9].reshape(3, 3) @ R.T
-        bf[t, POLAR:POLAR + 9] = P.ravel()
-        bi[t, HAS_JP] = bi[t, HAS_JP] or bi[k, HAS_JP]
+    """Lump every rigid body attached by a constant joint (one that depends
+    on no coordinate) to a rigid ancestor (e.g. rigid blades on the hub) into
+    that ancestor (`lumping.lump`): same total mass, centre of mass, inertia
+    tensor and polar tensor (exact). The lumped body keeps its kinematics
+    only for its node forces (kind LUMPED)."""
+    n = eq.n_all
+    parents = list(bi[:, PARENT])
+    flexible = [bi[k, KIND] == FLEX for k in range(len(parents))]
+    joins = [bi[k, KIND] == RIGID and parents[k] >= 0 and not flexible[parents[k]]
+             and not _joint_columns(j, n) for k, (_, j, _) in enumerate(eq.bodies)]
+    parts = [RigidPart(float(bf[k, MASS]), bf[k, CM:CM + 3].copy(), bf[k, INERTIA:INERTIA + 9].reshape(3, 3).copy())
+             for k in range(len(parents))]
+    placements = [constant_placement(b.joint) if joins[k] else None for k, (b, _, _) in enumerate(eq.bodies)]
+    result = lump(parents, parts, placements, joins, whole_subtrees=False)
+    for t, part in result.parts.items():
+        for k in result.lumped_into(t):
+            R = result.pose[k][0]
+            P = bf[t, POLAR:POLAR + 9].reshape(3, 3) + R @ bf[k, POLAR:POLAR + 9].reshape(3, 3) @ R.T
+            bf[t, POLAR:POLAR + 9] = P.ravel()
+            bi[t, HAS_JP] = bi[t, HAS_JP] or bi[k, HAS_JP]
+            bi[k, KIND] = LUMPED
         bi[t, KIND] = RIGID
-        bi[k, KIND] = LUMPED
-        changed.add(t)
-    for t in changed:
-        c = first[t] / mass[t] if mass[t] > 0 else np.zeros(3)
-        bf[t, MASS] = mass[t]
-        bf[t, CM:CM + 3] = c
-        bf[t, INERTIA:INERTIA + 9] = (second[t] - mass[t] * (c @ c * np.eye(3) - np.outer(c, c))).ravel()
+        bf[t, MASS] = part.mass
+        bf[t, CM:CM + 3] = part.cm
+        bf[t, INERTIA:INERTIA + 9] = part.inertia.ravel()
 
 
 def _work_arrays(nb, n, ne_max, n_max):

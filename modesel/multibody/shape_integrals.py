@@ -50,6 +50,7 @@ from scipy.interpolate import BPoly
 from modesel.candidates.base import ShapeSet
 from modesel.errors import ModeselError
 from modesel.multibody.quadrature import gauss_legendre
+from modesel.multibody.rotations import skew
 from modesel.vocabulary import DIRECTIONS, FIELD_DIRECTIONS
 
 ILL_CONDITIONED = 1e8
@@ -181,16 +182,6 @@ class ShapeIntegrals:
     @property
     def count(self) -> int:
         return self.mass.shape[0]
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrices of vectors (..., 3) -> (..., 3, 3): skew(a) b = a x b."""
-    v = np.asarray(v, dtype=float)
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
 
 
 def tail_integral(span, values, s, lever_offset=None) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from modesel.multibody.bodies import FlexibleBody, RigidBody
+from modesel.multibody.bodies import FlexibleBody
 
 
 @dataclass
@@ -77,9 +77,6 @@ class System:
     @property
     def n_free(self) -> int:
         return len(self.free)
-
-    def rigid_bodies(self):
-        return [b for b in self.bodies if isinstance(b, RigidBody)]
 
     def flexible_bodies(self):
         return [b for b in self.bodies if isinstance(b, FlexibleBody)]

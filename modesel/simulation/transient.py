@@ -65,9 +65,10 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
         check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
-    method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested)
+    rhs = built.rhs()
+    method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs)
     try:
-        integ = integrate(built.rhs(), built.q0, built.qd0, tmax, dt, method=method,
+        integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,
                           rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
                           max_step=float(scene.solver.get("max_step", np.inf)), bounds=divergence_bounds(built),
                           stiffness_ratio=ratio)
@@ -77,7 +78,7 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     wall = time.perf_counter() - t0
     df = channels(built, integ)
     df.attrs["units"] = {c: u for c in df.columns if (u := channel_unit(c)) is not None}
-    return SimulationResult(df, n, wall, float(integ.t[-1]), names, method, ratio, integ.n_rhs)
+    return SimulationResult(df, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs)
 
 
 def _name(names, index: str) -> str:

@@ -46,7 +46,7 @@ def test_free_rotor_at_twice_rated_speed_conserves_energy():
     run = simulate(sc, ms, tmax=1.0, dt=0.01)
     assert run.finite()
     assert_method_justified(run, sc, ms)
-    assert run.method == "DOP853"
+    assert run.method == "compiled-DOP853"
     assert run.energy_drift() < 1e-6
     speed = run.result.outputs["RotSpeed"].to_numpy()
     assert speed[0] == pytest.approx(2 * RATED_RPM) and np.all(np.abs(speed / speed[0] - 1) < 1e-3)

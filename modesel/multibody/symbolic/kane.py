@@ -27,10 +27,11 @@ from sympy.physics.mechanics import Point, ReferenceFrame, dynamicsymbols, msubs
 
 from modesel.errors import ModeselError
 from modesel.multibody.bodies import FlexibleBody, RigidBody
-from modesel.multibody.kane import elementary_rotation
+from modesel.multibody.lumping import joint_coordinates
+from modesel.multibody.rotations import elementary_rotation
 from modesel.multibody.symbolic.parameters import (AXES, SMALL_PRE_ROTATION, ParameterTable,
                                                        body_label)
-from modesel.multibody.symbolic.reduction import moving_coordinates, reduce_system
+from modesel.multibody.symbolic.reduction import reduce_system
 from modesel.multibody.symbolic.shape_integrals import NodeField, ShapeIntegrals, body_key, constant
 
 COORDINATE_LATEX = {"GeAz": r"\psi", "PtfmSurge": r"x", "PtfmPitch": r"\phi_y", "Yaw": r"\theta_{yaw}",
@@ -268,7 +269,7 @@ class SymbolicKane:
             Ob.set_vel(N, Op.vel(N) + rel.dt(N))
             Ob.set_acc(N, Ob.vel(N).dt(N))
             frames[body.name], points[body.name] = B, Ob
-            own = moving_coordinates(j) | (set(body.dofs) if isinstance(body, FlexibleBody) else set())
+            own = joint_coordinates(j) | (set(body.dofs) if isinstance(body, FlexibleBody) else set())
             driven[body.name] = pdriven or bool(own & free_set)
             if not driven[body.name]:
                 continue                       # no free coordinate moves it: no contribution

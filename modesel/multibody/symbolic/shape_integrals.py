@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
+from modesel.multibody.rotations import skew
 from modesel.multibody.symbolic.parameters import AXES, ParameterTable
 
 _ZERO3 = sp.zeros(3, 1)
@@ -45,11 +46,6 @@ FAMILIES = {
     ("Phi", "S"): ("Gp", r"G_{p", "int Phi_l (a S_ij)^T dm (second-order inertia, App. D4)"),
     ("S", "S"): ("Gq", r"G_{q", "int (a S_ij)(a S_lm)^T dm (second-order inertia, App. D4)"),
 }
-
-
-def skew(w):
-    """Skew matrix [w~] of a sympy 3-vector (w x v = [w~] v)."""
-    return sp.Matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
 
 
 class NodeField:
@@ -82,7 +78,7 @@ class NodeField:
 
     def crossed(self, w):
         """w x v_k."""
-        return self.transformed(skew(w))
+        return self.transformed(sp.Matrix(skew(np.array(w, dtype=object).reshape(3))))
 
 
 def constant(vec) -> NodeField:

@@ -1,0 +1,126 @@
+"""`CompiledRHS`: the Python front of the compiled kernel (`kernel.py`) for
+one `KaneEquations`, built from its public attributes: the packed arrays
+(`packed_full`, `packed_free`), the coordinate indices and the prescribed
+motion. `integrate` takes it as the right-hand side of the method
+"compiled-DOP853" (`kernel.dop853`), and of scipy's methods through
+`accelerations`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from modesel.multibody import kernel
+
+
+class CompiledRHS:
+    """A `KaneEquations` packed for the compiled kernel, with its free,
+    prescribed and fixed coordinates.
+
+    linear: iterable of (row, column, stiffness, damping) over coordinate
+    names: generalised spring-dampers gen[row] -= k q[column] + c qd[column]
+    [N/m, N s/m or N m/rad, N m s/rad] (e.g. the drivetrain, ElastoDyn
+    DTTorSpr/DTTorDmp). Callable as (t, q, qd) -> (M, F) of the free
+    coordinates like `Built.M_F`; `accelerations(t, q, qd)` solves inside the
+    kernel; `dop853` integrates entirely compiled, which needs every
+    prescribed coordinate to be polynomial in t (`compilable`). `full`
+    evaluates all coordinates: every row with all_rows=True, else only the
+    rows of free and prescribed coordinates (the others are zero);
+    `reactions` (all_rows) gives the reaction loads of fixed coordinates at
+    many output times in one compiled call."""
+
+    def __init__(self, eq, linear=(), *, all_rows=False):
+        self.eq = eq
+        self.packed = eq.packed_full if all_rows else eq.packed_free
+        n, nf = eq.n_all, len(eq.free_idx)
+        lin = list(linear)
+        lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _ in lin], np.int64).reshape(-1, 2)
+        lin_kc = np.array([[k, c] for _, _, k, c in lin], float).reshape(-1, 2)
+        poly = eq.prescribed_polynomials
+        self.compilable = poly is not None
+        pcoef = np.zeros((len(eq.presc_idx), 3)) if poly is None else poly
+        n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
+        self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
+                     eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
+                     np.zeros((n_nodes, 3)), np.zeros(eq.n_bodies, np.int64))
+        self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
+        self.n_free = nf
+        self._x = np.zeros(2 * nf)
+        self._out = np.zeros(2 * nf)
+        self._no_bounds = np.full(nf, np.inf)
+
+    def _problem_at(self, t):
+        """(time passed to the kernel, prob): prescribed callables are
+        evaluated here and passed as a constant-acceleration polynomial at 0."""
+        if self.compilable:
+            return float(t), self.prob
+        return 0.0, self.prob[:2] + (self.eq.prescribed_state(t),) + self.prob[3:]
+
+    def _free(self, t, q, qd, solve):
+        x = self._x
+        x[:self.n_free] = q
+        x[self.n_free:] = qd
+        tk, prob = self._problem_at(t)
+        p = self.packed
+        return kernel.free_system(tk, x, self._out, solve, self._no_bounds, prob, self.rwork, p.data, p.work)[0]
+
+    def __call__(self, t, q, qd):
+        self._free(t, q, qd, False)
+        return self.rwork[3].copy(), self.rwork[4].copy()
+
+    def accelerations(self, t, q, qd):
+        """(qdd, status) at the free coordinates; status OK, SINGULAR or NON_FINITE_ACC
+        (the state itself is checked by the caller)."""
+        code = self._free(t, q, qd, True)
+        return self._out[self.n_free:].copy(), code
+
+    def full(self, q_all, qd_all, generalized=None, node_forces=None):
+        """M (n_all x n_all) and F (n_all) at all coordinates; node_forces
+        {flexible body name: (N, 3) inertial forces [N]}."""
+        n = self.eq.n_all
+        gen = np.zeros(n) if generalized is None else np.asarray(generalized, float)
+        fnodes, flag = self.prob[7], self.prob[8]
+        if node_forces:
+            fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
+            for name, f in node_forces.items():
+                first, count = self.packed.node_start[name]
+                fnodes[first:first + count] = f
+                flag[self.eq.body_index[name]] = 1
+        M, F = np.empty((n, n)), np.empty(n)
+        p = self.packed
+        kernel.assemble(np.asarray(q_all, float), np.asarray(qd_all, float), self.prob[4], fnodes, flag, gen,
+                        p.data, p.work, M, F)
+        return M, F
+
+    def reactions(self, t, q, qd, rows):
+        """Reaction loads F_r - M_r qdd [N or N m] of coordinates `rows`
+        (names, e.g. the models' reaction coordinates) at times t (n_t,) and
+        free states q, qd (n_t, n_free): (n_t, len(rows)). Needs all_rows."""
+        if self.packed is not self.eq.packed_full:
+            raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
+        t = np.atleast_1d(np.asarray(t, float))
+        X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
+        idx = np.array([self.eq.index[r] for r in rows], np.int64)
+        out = np.zeros((len(t), len(idx)))
+        if not self.compilable:
+            for k, tk in enumerate(t):
+                tk0, prob = self._problem_at(tk)
+                kernel.reaction_loads(np.array([tk0]), X[k:k + 1], idx, prob, self.rwork, self.packed.data,
+                                      self.packed.work, out[k:k + 1])
+            return out
+        code = kernel.reaction_loads(t, X, idx, self.prob, self.rwork, self.packed.data, self.packed.work, out)
+        if code != kernel.OK:
+            out[:] = np.nan
+        return out
+
+    def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+        """Integrate from x0 = [q, qd] over [0, tmax]:
+        (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval)."""
+        if not self.compilable:
+            raise ValueError("a prescribed coordinate is a Python function: use scipy")
+        Y = np.zeros((len(t_eval), len(x0)))
+        p = self.packed
+        code, t_stop, nfev, n_out, idx = kernel.dop853(np.array(x0, float), np.asarray(t_eval, float),
+                                                       float(tmax), float(rtol), np.asarray(atol, float),
+                                                       float(max_step), np.asarray(bounds, float), tuple(table),
+                                                       self.prob, self.rwork, p.data, p.work, Y)
+        return code, t_stop, nfev, idx, Y[:n_out]

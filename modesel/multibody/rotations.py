@@ -1,0 +1,43 @@
+"""Vector algebra of body frames: elementary rotations, cross products and
+the skew-symmetric matrix of a vector (the one home of each, for the numpy
+reference of the Kane equations, the shape integrals, the turbine template
+and the symbolic layer).
+
+    [v~] w = v x w,    [v~] = [[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]
+
+(first paper eq. 2-3: omega x s = [omega~] s). Angles in rad.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def skew(v):
+    """Skew-symmetric matrices [v~] of vectors v (..., 3) -> (..., 3, 3),
+    [v~] w = v x w. Float arrays give float matrices; object arrays (SymPy
+    expressions) give object matrices with the same entries."""
+    v = np.asarray(v)
+    if v.dtype != object:
+        v = v.astype(float)
+    out = np.zeros(v.shape + (3,), v.dtype)
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def cross(a, b):
+    """Cross product of 3-vectors or (N,3) arrays (faster than np.cross)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def elementary_rotation(axis: int, angle: float) -> np.ndarray:
+    """Rotation matrix (body -> parent) about x (0), y (1) or z (2) by `angle` [rad]."""
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == 0:
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == 1:
+        return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
