@@ -170,6 +170,8 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
     model = build_turbine(scene.turbine, ms, free=spec.free, fixed=spec.fixed, prescribed=spec.prescribed,
                           gravity=bool(scene.effect("gravity")),
                           geometric_stiffening=bool(scene.effect("geometric_stiffening")),
+                          structural_twist=bool(scene.effect("structural_twist")),
+                          elastodyn_nodes=bool(scene.effect("elastodyn_nodes", False)),
                           rotor_speed_for_shapes=scene.constant_speed.get("GeAz", init.get("RotSpeed", 0.0)),
                           pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
                           reactions=spec.reactions)
@@ -210,15 +212,43 @@ def _initial_state(model, init):
         put(fd["tower_ss"][0], -init.get("TTDspSS", 0.0))       # ElastoDyn: Q_TSS along -y
     if fd.get("tower_torsion"):
         put(fd["tower_torsion"][0], init.get("TTDspTwst", 0.0))
-    for dofs in fd.get("blade_flap", []):
-        put(dofs[0], init.get("OoPDefl", 0.0))
-    for dofs in fd.get("blade_edge", []):
-        put(dofs[0], init.get("IPDefl", 0.0))
+    for b in range(len(fd.get("blade_flap", fd.get("blade_edge", [])))):
+        for dof, value in _initial_blade(model, b, init.get("OoPDefl", 0.0), init.get("IPDefl", 0.0)).items():
+            put(dof, value)
     put("GeAz", init.get("Azimuth", 0.0), init.get("RotSpeed", 0.0))
     put("Yaw", init.get("NacYaw", 0.0))
     put("PtfmSurge", init.get("PtfmSurge", 0.0))
     put("PtfmPitch", init.get("PtfmPitch", 0.0))
     return q0, qd0
+
+
+def _initial_blade(model, b: int, oop: float, ip: float) -> dict:
+    """{DOF: value} of blade index `b` (0-based) whose tip is deflected by
+    `oop` out of plane and `ip` in plane [m], along the x and y axes of the
+    coned (unpitched) blade frame, as ElastoDyn's InitBlDefl: the whole
+    deflection goes to the first flap mode and the first edge mode (the
+    second flap mode starts at 0; without flap DOFs, the first edge mode
+    alone), whose tip displacements (twisted shapes, pitched frame) are
+    turned by the pitch into the coned frame; the 2x2 system is solved, or,
+    with one mode, its least-squares solution (ElastoDyn's formula)."""
+    cols = []
+    for fld in ("blade_flap", "blade_edge"):
+        groups = model.field_dofs.get(fld, [])
+        if b < len(groups) and groups[b]:
+            cols.append(groups[b][0])
+    if not cols or (oop == 0.0 and ip == 0.0):
+        return {}
+    c, s = np.cos(model.pitch), np.sin(model.pitch)
+    A = np.empty((2, len(cols)))
+    for k, dof in enumerate(cols):
+        u = model.blade_tip_displacement(dof)
+        A[:, k] = (u[0] * c + u[1] * s, -u[0] * s + u[1] * c)        # pitched -> coned frame
+    target = np.array([oop, ip])
+    if len(cols) == 2 and abs(np.linalg.det(A)) > 1e-12:
+        x = np.linalg.solve(A, target)
+    else:
+        x = np.linalg.lstsq(A, target, rcond=None)[0]
+    return dict(zip(cols, x))
 
 
 def static_equilibrium(built: Built, t: float = 0.0) -> np.ndarray:
@@ -256,7 +286,7 @@ def _collective(pitch) -> float:
 #: units of the output channels (outputs.py), OpenFAST's
 _CHANNEL_UNITS = (
     (r"Time", "s"), (r"Azimuth|TTDspTwst|PtfmPitch|NacYaw", "deg"), (r"RotSpeed|GenSpeed", "rpm"),
-    (r"TTDsp(FA|SS)|OoPDefl\d|IPDefl\d|PtfmSurge", "m"), (r"RotThrust", "kN"),
+    (r"TTDsp(FA|SS)|OoPDefl\d|IPDefl\d|TipD[xy][cb]\d|PtfmSurge", "m"), (r"RotThrust", "kN"),
     (r"RotTorq|GenTq|TwrBsMyt|RootMyc\d", "kN-m"), (r"GenPwr", "kW"),
     (r"Q_(TFA|TSS|B\d[FE])\d+|Q_PtfmSurge", "m"), (r"Q_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad"),
     (r"QD_(TFA|TSS|B\d[FE])\d+|QD_PtfmSurge", "m/s"), (r"QD_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad/s"),

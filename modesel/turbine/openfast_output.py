@@ -10,6 +10,8 @@ converted: OpenFAST writes angles in deg and speeds in rpm.
 """
 from __future__ import annotations
 
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -105,3 +107,123 @@ def read_openfast_output(path) -> pd.DataFrame:
     frame.attrs["source"] = str(path)
     frame.attrs["description"] = str(output.info.get("description", ""))
     return frame
+
+
+# ------------------------------------------------------------------ linearisation (.lin) files
+#: ElastoDyn's internal DOF index (in a .lin state description) -> modesel coordinate name
+_ED_DOFS = {"DOF_TFA1": "TFA1", "DOF_TFA2": "TFA2", "DOF_TSS1": "TSS1", "DOF_TSS2": "TSS2",
+            "DOF_DrTr": "DrTr", "DOF_GeAz": "GeAz", "DOF_Yaw": "Yaw"}
+
+
+@dataclass
+class OpenFastLinearization:
+    """One OpenFAST `.lin` file: the first-order state matrix A of
+    dx/dt = A x (+ B u) about its operating point, with x = [q; dq/dt].
+
+    names: modesel name of each coordinate q (TFA1, TSS1, DrTr, B1F1, B2E1,
+    GeAz ...), in A's order; rotating: whether the coordinate is in the
+    rotating frame (a blade DOF); azimuth [rad] of blade 1 (0 = up) and
+    rotor_speed [rad/s] at the linearisation time; time [s]."""
+
+    path: str
+    A: np.ndarray
+    names: list
+    rotating: list
+    azimuth: float
+    rotor_speed: float
+    time: float
+
+
+def read_openfast_lin(path) -> OpenFastLinearization:
+    """Read the state matrix A and the state list of an OpenFAST `.lin` file
+    (text, as written by OpenFAST's linearisation; only ElastoDyn states,
+    i.e. second-order structural DOFs, are supported)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ModeselError("OpenFAST linearisation file not found", file=str(path))
+    lines = path.read_text(errors="replace").splitlines()
+
+    def value(label):
+        for line in lines:
+            if line.strip().startswith(label):
+                return float(line.split(":", 1)[1].split()[0])
+        raise ModeselError(f"no '{label}' line", file=str(path))
+
+    n = int(value("Number of continuous states"))
+    start = next((i for i, line in enumerate(lines) if line.startswith("Order of continuous states:")), None)
+    a_at = next((i for i, line in enumerate(lines) if line.startswith("A:")), None)
+    if start is None or a_at is None or n % 2:
+        raise ModeselError("not a .lin file with continuous states and an A matrix", file=str(path))
+    names, rotating = [], []
+    for line in lines[start + 3:start + 3 + n // 2]:
+        m = re.search(r"internal DOF index = (DOF_\w+(?:\((\d+),(\d+)\))?)", line)
+        if m is None:
+            raise ModeselError(f"unsupported state (not an ElastoDyn DOF): {line.strip()[:80]}", file=str(path))
+        key = m.group(1)
+        if key.startswith(("DOF_BF", "DOF_BE")):
+            names.append(f"B{m.group(2)}{'F' if key.startswith('DOF_BF') else 'E'}{m.group(3)}")
+        elif key in _ED_DOFS:
+            names.append(_ED_DOFS[key])
+        else:
+            raise ModeselError(f"unsupported ElastoDyn DOF {key}", file=str(path))
+        rotating.append(line.split()[2] == "T")
+    A = np.array([[float(v) for v in lines[a_at + 1 + i].split()] for i in range(n)])
+    if A.shape != (n, n):
+        raise ModeselError(f"A is {A.shape}, expected {n} x {n}", file=str(path))
+    return OpenFastLinearization(str(path), A, names, rotating, value("Azimuth"), value("Rotor Speed"),
+                                 value("Simulation time"))
+
+
+def openfast_modes(lins, weights=None):
+    """Modes of OpenFAST linearisations: `lins` is one `.lin` (parked rotor)
+    or several at equally spaced azimuths of one revolution (turning rotor).
+
+    Three-bladed rotors are transformed to multi-blade coordinates (MBC3,
+    Bir 2008, NREL/CP-500-42553, eq. 14-20): blade DOF X of blade b =
+    X_coll + cos(psi_b) X_cos + sin(psi_b) X_sin with psi_b = psi + 2 pi
+    (b - 1) / 3; with x = T x_nr, T = [[T1, 0], [Omega T2, T1]], the
+    non-rotating state matrix is A_nr = T^-1 (A T - dT/dt),
+    dT/dt = [[Omega T2, 0], [Omega^2 T3, Omega T2]] (T2 = dT1/dpsi,
+    T3 = d2T1/dpsi2), averaged over the azimuths. Eigenvalues of A_nr give
+    the natural frequencies |lambda| / 2 pi [Hz] and damping ratios
+    -Re(lambda) / |lambda|, one per conjugate pair, sorted by frequency;
+    each is labelled by its dominant coordinate: the largest
+    weights[name] * |phi_name|^2 (weights: e.g. the generalised masses
+    M_ii of the same coordinates; unit weights when None). A parked rotor
+    (speed 0) uses the one azimuth of its file.
+    Returns [(frequency_hz, damping_ratio, label)], labels as modesel's
+    `linearize_scene` (F1_coll, E1_cos, TFA1, DrTr ...)."""
+    from modesel.simulation.api import _mbc_matrices
+    lins = [lins] if isinstance(lins, OpenFastLinearization) else list(lins)
+    first = lins[0]
+    n = len(first.names)
+    groups = {}
+    for i, name in enumerate(first.names):
+        if name[0] == "B" and name[1].isdigit():
+            groups.setdefault(name[2:], [None] * 3)[int(name[1]) - 1] = i
+    mbc = len(groups) > 0 and all(None not in g for g in groups.values())
+    names = list(first.names)
+    if mbc:
+        for key, idx in groups.items():
+            names[idx[0]], names[idx[1]], names[idx[2]] = f"{key}_coll", f"{key}_cos", f"{key}_sin"
+    A_nr = np.zeros((2 * n, 2 * n))
+    for lin in lins:
+        if lin.names != first.names:
+            raise ModeselError("linearisation files with different states", file=lin.path)
+        if not mbc:
+            A_nr += lin.A
+            continue
+        om = lin.rotor_speed
+        T1, T2, T3 = _mbc_matrices(n, groups, lin.azimuth)
+        Z = np.zeros((n, n))
+        T = np.block([[T1, Z], [om * T2, T1]])
+        Td = np.block([[om * T2, Z], [om**2 * T3, om * T2]])
+        A_nr += np.linalg.solve(T, lin.A @ T - Td)
+    A_nr /= len(lins)
+    lam, vec = np.linalg.eig(A_nr)
+    w = np.ones(n) if weights is None else np.array([float(weights.get(k, 1.0)) for k in names])
+    out = []
+    for i in np.flatnonzero(lam.imag > 0):
+        energy = np.abs(vec[:n, i]) ** 2 * w
+        out.append((abs(lam[i]) / (2 * np.pi), -lam[i].real / abs(lam[i]), names[int(np.argmax(energy))]))
+    return sorted(out)
