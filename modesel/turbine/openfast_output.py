@@ -136,12 +136,15 @@ class OpenFastLinearization:
 
 def read_openfast_lin(path) -> OpenFastLinearization:
     """Read the state matrix A and the state list of an OpenFAST `.lin` file
-    (text, as written by OpenFAST's linearisation; only ElastoDyn states,
-    i.e. second-order structural DOFs, are supported)."""
+    (text, as written by OpenFAST's linearisation, or gzip-compressed
+    `.lin.gz`; only ElastoDyn states, i.e. second-order structural DOFs,
+    are supported)."""
+    import gzip
     path = Path(path)
     if not path.is_file():
         raise ModeselError("OpenFAST linearisation file not found", file=str(path))
-    lines = path.read_text(errors="replace").splitlines()
+    raw = path.read_bytes()
+    lines = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode(errors="replace").splitlines()
 
     def value(label):
         for line in lines:
