@@ -185,7 +185,7 @@ def elastodyn_damping(K: np.ndarray, M: np.ndarray, zeta) -> np.ndarray:
 
 
 def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shortening: bool = True,
-                        min_nodes: int = 40, extra_nodes=None, nodes=None) -> tuple[FlexibleBody, dict]:
+                        min_nodes: int = 40, extra_nodes=None, ed_nodes=None) -> tuple[FlexibleBody, dict]:
     """FlexibleBody of `beam` with the bending/torsion `fields` (FieldShapes
     evaluated at `beam_nodes(beam)`). The beam axis is the body z axis and
     node z = root_offset + s.
@@ -194,9 +194,9 @@ def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shorteni
     "slope_x": {...}, "twist": {...}, "shortening": (dofs, G)} for the joint of
     a body carried at the tip.
     """
-    # nodes=(s, w) of `elastodyn_nodes`: ElastoDyn's midpoint rule, with its
+    # ed_nodes=(s, w) of `elastodyn_nodes`: ElastoDyn's midpoint rule, with its
     # discrete axial-shortening integrals (`elastodyn_axial`)
-    s, w = beam_quadrature(beam.span, min_nodes) if nodes is None else nodes
+    s, w = beam_quadrature(beam.span, min_nodes) if ed_nodes is None else ed_nodes
     N = len(s)
     m_nodes = interpolate(beam, beam.mass, s) * w
     nodes = np.zeros((N, 3))
@@ -207,6 +207,7 @@ def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shorteni
     eta = np.zeros((N, ne))
     K = np.zeros((ne, ne))
     D = np.zeros((ne, ne))
+    Mfield = np.zeros((ne, ne))
     tip = {"displacement": {}, "slope_y": {}, "slope_x": {}, "twist": {}}
     slopes_fine = np.zeros((0, 3, 0))
     col = 0
@@ -243,11 +244,12 @@ def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shorteni
             t = np.array([fs.stiffness_tuner[min(i, len(fs.stiffness_tuner) - 1)] for i in range(k)])
             Kf = Kf * np.sqrt(np.outer(t, t))
         K[sl, sl] = Kf
+        Mfield[sl, sl] = Mf
         D[sl, sl] = elastodyn_damping(Kf, Mf, fs.damping_ratio)
         col += k
     S = None
     G_tip = None
-    if shortening and fine_blocks and nodes is not None:
+    if shortening and fine_blocks and ed_nodes is not None:
         slopes = np.zeros((ne, 3, N))
         for sl, e, _, _, dphi, extra in fine_blocks:
             slopes[sl] = e[None, :, None] * dphi[:, None, :]
@@ -271,7 +273,7 @@ def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shorteni
         G_tip = cum[:, :, -1]
     body = FlexibleBody(name, joint, nodes, m_nodes, np.array([0.0, 0.0, 1.0]), tuple(dofs), Phi,
                         S, eta if np.any(eta) else None,
-                        interpolate(beam, beam.polar_inertia, s) * w if np.any(eta) else None, K, D)
+                        interpolate(beam, beam.polar_inertia, s) * w if np.any(eta) else None, K, D, Mfield)
     tip["shortening"] = None if G_tip is None else (tuple(dofs), G_tip)
     tip["length"] = beam.root_offset + beam.length
     return body, tip

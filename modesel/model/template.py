@@ -308,7 +308,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             shapes[fld] = fn
     tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
                                       tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes,
-                                      nodes=(s_nodes, w_nodes) if tower_ed else None)
+                                      ed_nodes=(s_nodes, w_nodes) if tower_ed else None)
     bodies.append(tower)
     tips["tower"] = ttip
     weights["tower"] = w_nodes
@@ -406,7 +406,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                                         twist_slope_nodes=tw[1] if tw is not None and blade_ed else None))
             body, btip = build_flexible_body(f"blade{b}", bj, blade_beam, flds,
                                              shortening=geometric_stiffening, min_nodes=blade_nodes,
-                                             nodes=(sb_nodes, wb_nodes) if blade_ed else None)
+                                             ed_nodes=(sb_nodes, wb_nodes) if blade_ed else None)
             body.nodes = body.nodes - np.array([0.0, 0.0, root])       # origin at the root
             btip["length"] -= root
             w_body = wb_nodes
