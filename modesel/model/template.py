@@ -126,6 +126,8 @@ class TurbineModel:
     #: field -> (fine span [m], (count, 3, M) twist displacement correction)
     #: of the blade fields (`flexible_beam.twist_correction`); empty without twist
     blade_twist: dict = field(default_factory=dict)
+    #: the blades use ElastoDyn's discrete nodes (`elastodyn_nodes`)
+    blade_elastodyn_nodes: bool = False
 
     def blade_tip_displacement(self, dof: str) -> np.ndarray:
         """Tip displacement [m per unit coordinate] of blade DOF `dof` in its
@@ -341,6 +343,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
 
     # ---- blades (eq. 26-29: azimuth, precone, pitch; body origin at the root)
     blade_fields = ()
+    blade_ed = False
     if include_blades:
         blade_fields_spec = [(f, modeset[f]) for f in ("blade_flap", "blade_edge") if f in modeset]
         blade_fields = tuple(f for f, _ in blade_fields_spec)
@@ -432,4 +435,4 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     free_all = elastic + [d for d in RIGID_DOFS if d in free]
     system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
     return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
-                        reaction_names, blade_fields, blade_twist)
+                        reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed))
