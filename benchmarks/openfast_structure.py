@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from modesel.surrogate_sim.api import linearize_scene, simulate
-from modesel.surrogate_sim.openfast_output import openfast_modes, read_openfast_lin, read_openfast_output
-from modesel.surrogate_sim.scene import load_scene
+from modesel.simulation.api import linearize_scene, simulate
+from modesel.turbine.openfast_output import openfast_modes, read_openfast_lin, read_openfast_output
+from modesel.simulation.scene import load_scene
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data"
 CHANNELS = ("TTDspFA", "TTDspSS", "OoPDefl1", "OoPDefl2", "OoPDefl3", "IPDefl1", "IPDefl2", "IPDefl3")

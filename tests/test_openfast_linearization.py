@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modesel.surrogate_sim.api import linearize_scene
-from modesel.surrogate_sim.openfast_output import openfast_modes, read_openfast_lin
-from modesel.surrogate_sim.scene import load_scene
+from modesel.simulation.api import linearize_scene
+from modesel.turbine.openfast_output import openfast_modes, read_openfast_lin
+from modesel.simulation.scene import load_scene
 
 DATA = Path(__file__).resolve().parent / "data" / "openfast_lin"
 TOLERANCE = 0.005

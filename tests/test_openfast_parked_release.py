@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modesel.surrogate_sim.api import build, simulate
-from modesel.surrogate_sim.openfast_output import read_openfast_output
-from modesel.surrogate_sim.scene import load_scene
+from modesel.simulation.api import build, simulate
+from modesel.turbine.openfast_output import read_openfast_output
+from modesel.simulation.scene import load_scene
 
 CASE = Path(__file__).resolve().parent / "data" / "openfast_turbine" / "parked_release"
 CHANNELS = ("TTDspFA", "TTDspSS", "OoPDefl1", "OoPDefl2", "OoPDefl3", "IPDefl1", "IPDefl2", "IPDefl3")

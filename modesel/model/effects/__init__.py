@@ -10,8 +10,8 @@ behind the `Effect` interface (`base.py`), selected by `select(scene)`.
     tower_drag  quasi-steady tower drag (second paper eq. 51)
 
 `gravity`, `geometric_stiffening`, `structural_twist` (blade shapes that
-turn with the structural twist, models.py) and `elastodyn_nodes` (beams
-integrated on the deck's ElastoDyn analysis nodes, models.py) are flags of
+turn with the structural twist, model/template.py) and `elastodyn_nodes` (beams
+integrated on the deck's ElastoDyn analysis nodes, model/template.py) are flags of
 the system itself (the engine's kinematics), not modules; the first three
 default to true, `elastodyn_nodes` to false except in a scene read from an
 ElastoDyn or .fst file. An effect that is off is not imported,
