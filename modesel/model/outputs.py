@@ -6,7 +6,10 @@ Channels (units as OpenFAST writes them):
   coordinate; Azimuth [deg, 0-360) of blade 1; RotSpeed [rpm]; GenSpeed
   [rpm]; TTDspFA, TTDspSS [m] tower-top displacement (SS positive along +y);
   TTDspTwst [deg]; OoPDefl<b>, IPDefl<b> [m] blade-tip out-of-plane /
-  in-plane deflection (blades with DOFs); PtfmSurge [m]; PtfmPitch [deg];
+  in-plane deflection along the coned frame's x/y axes (= TipDxc<b>,
+  TipDyc<b>) and TipDxb<b>, TipDyb<b> along the pitched blade frame's
+  (blades with DOFs; the tip displacement of every blade DOF, twisted
+  shapes included, as ElastoDyn); PtfmSurge [m]; PtfmPitch [deg];
   NacYaw [deg] (when those DOFs exist).
 - from effects (only when switched on): RotThrust [kN], RotTorq [kN m]
   (aero: aerodynamic rotor thrust along the shaft and torque about it, from
@@ -43,6 +46,7 @@ from modesel.vocabulary import dof_unit, parse_dof
 CHANNEL_UNITS = {
     "Time": "s", "Azimuth": "deg", "RotSpeed": "rpm", "GenSpeed": "rpm",
     "TTDspFA": "m", "TTDspSS": "m", "TTDspTwst": "deg", "OoPDefl<b>": "m", "IPDefl<b>": "m",
+    "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
     "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg",
     "RotThrust": "kN", "RotTorq": "kN-m", "GenTq": "kN-m", "GenPwr": "kW",
     "TwrBsMyt": "kN-m", "RootMyc<b>": "kN-m",
@@ -97,12 +101,20 @@ def channels(built, integ) -> pd.DataFrame:
     data["TTDspFA"] = sum((coord(d)[0] for d in fa), np.zeros_like(t))
     data["TTDspSS"] = -sum((coord(d)[0] for d in ss), np.zeros_like(t))
     data["TTDspTwst"] = np.rad2deg(sum((coord(d)[0] for d in tw), np.zeros_like(t)))
+    cp, sp = np.cos(model.pitch), np.sin(model.pitch)
     for b in range(1, model.turbine.num_blades + 1):
-        flap = [dofs for dofs in model.field_dofs.get("blade_flap", []) if dofs and parse_dof(dofs[0]).blade == b]
-        edge = [dofs for dofs in model.field_dofs.get("blade_edge", []) if dofs and parse_dof(dofs[0]).blade == b]
-        if flap or edge:
-            data[f"OoPDefl{b}"] = sum((coord(d)[0] for ds in flap for d in ds), np.zeros_like(t))
-            data[f"IPDefl{b}"] = sum((coord(d)[0] for ds in edge for d in ds), np.zeros_like(t))
+        dofs = [d for fld in ("blade_flap", "blade_edge") for ds in model.field_dofs.get(fld, [])
+                if ds and parse_dof(ds[0]).blade == b for d in ds]
+        if dofs:
+            # tip deflection (ElastoDyn's rS0S at the tip: twisted shapes in the
+            # pitched blade frame j) projected on the coned frame i:
+            # OoPDefl = TipDxc, IPDefl = TipDyc; TipDxb, TipDyb along j1, j2
+            tip_b = sum((coord(d)[0][:, None] * model.blade_tip_displacement(d)[None, :] for d in dofs),
+                        np.zeros((len(t), 3)))
+            data[f"OoPDefl{b}"] = tip_b[:, 0] * cp + tip_b[:, 1] * sp
+            data[f"IPDefl{b}"] = -tip_b[:, 0] * sp + tip_b[:, 1] * cp
+            data[f"TipDxc{b}"], data[f"TipDyc{b}"] = data[f"OoPDefl{b}"], data[f"IPDefl{b}"]
+            data[f"TipDxb{b}"], data[f"TipDyb{b}"] = tip_b[:, 0], tip_b[:, 1]
     if "PtfmSurge" in idx or "PtfmSurge" in model.system.fixed:
         data["PtfmSurge"] = coord("PtfmSurge")[0]
     if "PtfmPitch" in idx or "PtfmPitch" in model.system.fixed:

@@ -23,9 +23,13 @@ Drivetrain (the scene's `drivetrain` effect chooses):
   ties them; here 1 mode per field gives 11 DOFs with "elastodyn" and 12
   with "two_spring": TFA1 TSS1 TTor1 B{1,2,3}F1 B{1,2,3}E1 GeAz DrTr [HSSTw]).
 
-Blade flap/edge shapes displace along the x/y axes of the *pitched* blade
-frame (no structural-twist coupling of flap and edge; the deck's twist is
-not applied to the shape directions).
+Blade flap/edge shapes are curvatures about the blade's local principal
+axes, which turn with the structural twist along the span (ElastoDyn's
+TwistedSF, `flexible_beam.twist_correction`): a flap mode also displaces
+edgewise and vice versa (mass, gravity and centrifugal coupling; no
+stiffness coupling), in the *pitched* blade frame. `structural_twist=False`
+(scene flag `[effects] structural_twist = false`) drops the coupling: the
+shapes then displace along the x/y axes of the pitched frame only.
 
 Gyroscopic and Coriolis couplings (rotor speed with tower-top rotation,
 blade vibration in the rotating frame) are part of the engine's inertial
@@ -58,7 +62,10 @@ from modesel.candidates.base import mode_shapes, shape_breakpoints
 from modesel.modeset import ModeSet
 from modesel.multibody.bodies import Joint, RigidBody, Rotation
 from modesel.multibody.rotations import elementary_rotation
-from modesel.model.flexible_beam import FieldShapes, beam_quadrature, build_flexible_body, evaluate_field, tip_joint
+from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_flexible_body,
+                                         elastodyn_twisted, evaluate_field, interpolate_fine, tip_joint,
+                                         twist_correction)
+from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
 from modesel.multibody.system import System
 from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, TOWER_BASE_REACTION, TOWER_FIELDS,
                                 field_dofs, is_blade_field, root_reaction)
@@ -103,7 +110,17 @@ class TurbineModel:
     drivetrain: str = "elastodyn"
     reactions: dict = field(default_factory=dict)
     blade_fields: tuple = ()
+    #: field -> (fine span [m], (count, 3, M) twist displacement correction)
+    #: of the blade fields (`flexible_beam.twist_correction`); empty without twist
+    blade_twist: dict = field(default_factory=dict)
+    #: the blades use ElastoDyn's discrete nodes (`elastodyn_nodes`)
+    blade_elastodyn_nodes: bool = False
 
+    def blade_tip_displacement(self, dof: str) -> np.ndarray:
+        """Tip displacement [m per unit coordinate] of blade DOF `dof` in its
+        pitched blade frame (ElastoDyn's TwistedSF at the tip)."""
+        body = f"blade{dof[1]}"
+        return np.asarray(self.tips[body]["displacement"].get(dof, np.zeros(3)), float)
     def station_shapes(self, body: str, span: np.ndarray):
         """Undeformed positions s0 (M,3), shapes Phi (M,3,ne) and axial
         shortening matrices S (M,ne,ne) of extra points at `span` [m from the
@@ -127,6 +144,9 @@ class TurbineModel:
             if fld != "tower_torsion":
                 phi = self.shapes[fld](span / L).phi                 # (k, M)
                 Phi[:, :, col:col + k] = FIELD_DIRECTION[fld][None, :, None] * phi.T[:, None, :]
+                if fld in self.blade_twist:
+                    fine_s, disp = self.blade_twist[fld]
+                    Phi[:, :, col:col + k] += np.transpose(interpolate_fine(fine_s, disp, span), (2, 1, 0))
             col += k
         S = None
         if b.shortening is not None and ne:
@@ -187,6 +207,15 @@ def _quadrature_beam(turbine, beam, modeset: ModeSet, fields, rotor_speed: float
     return replace(beam, span=new, **props)
 
 
+def _elastodyn_discrete(turbine, beam: str, modeset: ModeSet, fields) -> bool:
+    """Whether `beam` ("tower"/"blade") can use ElastoDyn's discrete model:
+    the deck gave its node count and every field on it uses the deck's own
+    polynomials (other families need the converged quadrature)."""
+    count = getattr(turbine, f"{beam}_nodes", None)
+    used = [modeset[f] for f in fields if f in modeset]
+    return bool(count) and bool(used) and all(fm.family == "elastodyn" for fm in used)
+
+
 def _nodes_for(modeset: ModeSet, fields, min_nodes: int) -> int:
     """Quadrature nodes of a beam carrying `fields` (NODES_PER_MODE)."""
     counts = [modeset[f].count for f in fields if f in modeset]
@@ -219,7 +248,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                   gravity: bool = True, geometric_stiffening: bool = True,
                   rotor_speed_for_shapes: float = 0.0, pitch: float = 0.0,
                   include_blades: bool = True, min_nodes: int = 40, drivetrain: str = "elastodyn",
-                  gearbox_inertia: float = 0.0, reactions: bool = False, damping: bool = True) -> TurbineModel:
+                  gearbox_inertia: float = 0.0, reactions: bool = False, damping: bool = True,
+                  structural_twist: bool = True, elastodyn_nodes: bool = False) -> TurbineModel:
     """Body tree of `turbine` with the elastic fields of `modeset`.
 
     free: rigid DOFs integrated in time (subset of RIGID_DOFS); elastic DOFs
@@ -229,7 +259,14 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     `gearbox_inertia` [kg m^2, LSS side] about the shaft). reactions: add
     the fixed reaction coordinates (module doc). damping: False builds the
     beams without structural damping (D_e = 0). min_nodes: quadrature nodes
-    per beam, raised to NODES_PER_MODE per mode for many modes. Units SI.
+    per beam, raised to NODES_PER_MODE per mode for many modes.
+    structural_twist: blade shapes turn with the structural twist (module
+    doc). elastodyn_nodes: a beam whose fields all use the deck's own
+    polynomials (family `elastodyn`) is integrated on the deck's analysis
+    nodes (TwrNodes, BldNodes) with ElastoDyn's midpoint rule, discrete
+    twisted shapes and axial-shortening sums (`_elastodyn_discrete`), i.e.
+    the discrete model OpenFAST solves, instead of the converged quadrature.
+    Units SI.
     """
     fixed = dict(fixed or {})
     prescribed = dict(prescribed or {})
@@ -240,6 +277,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     shapes = {}
     weights = {}
     spans = {}
+    blade_twist = {}
 
     # ---- platform (only when a platform DOF is used)
     uses_platform = any(d in ("PtfmSurge", "PtfmPitch") for d in list(free) + list(fixed) + list(prescribed))
@@ -261,7 +299,11 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
         reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
     tower_nodes = _nodes_for(modeset, TOWER_FIELDS, min_nodes)
     tower_beam = _quadrature_beam(t, t.tower, modeset, TOWER_FIELDS, 0.0)
-    s_nodes, w_nodes = beam_quadrature(tower_beam.span, tower_nodes)
+    tower_ed = elastodyn_nodes and _elastodyn_discrete(t, "tower", modeset, TOWER_FIELDS)
+    if tower_ed:
+        s_nodes, w_nodes = elastodyn_midpoint_nodes(t.tower.length, t.tower_nodes)
+    else:
+        s_nodes, w_nodes = beam_quadrature(tower_beam.span, tower_nodes)
     fine_s = np.linspace(0, t.tower.length, FINE_POINTS)
     tower_fields = []
     for fld in TOWER_FIELDS:
@@ -276,7 +318,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                                                getattr(t.tower, "stiffness_tuners", {}).get(fld, ())))
             shapes[fld] = fn
     tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
-                                      tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes)
+                                      tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes,
+                                      ed_nodes=(s_nodes, w_nodes) if tower_ed else None)
     bodies.append(tower if damping else _undamped(tower))
     tips["tower"] = ttip
     weights["tower"] = w_nodes
@@ -309,19 +352,44 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
 
     # ---- blades (eq. 26-29: azimuth, precone, pitch; body origin at the root)
     blade_fields = ()
+    blade_ed = False
     if include_blades:
         blade_fields_spec = [(f, modeset[f]) for f in BLADE_FIELDS if f in modeset]
         blade_fields = tuple(f for f, _ in blade_fields_spec)
         L = t.blade.length
         blade_nodes = _nodes_for(modeset, BLADE_FIELDS, min_nodes)
         blade_beam = _quadrature_beam(t, t.blade, modeset, BLADE_FIELDS, rotor_speed_for_shapes)
-        sb_nodes, wb_nodes = beam_quadrature(blade_beam.span, blade_nodes)
+        blade_ed = elastodyn_nodes and _elastodyn_discrete(t, "blade", modeset, BLADE_FIELDS)
+        if blade_ed:
+            sb_nodes, wb_nodes = elastodyn_midpoint_nodes(L, t.blade_nodes)
+        else:
+            sb_nodes, wb_nodes = beam_quadrature(blade_beam.span, blade_nodes)
         fine_b = np.linspace(0, L, FINE_POINTS)
         evaluated = {}
+        twisted = {}
+        theta_fine = np.interp(fine_b, t.blade.span - t.blade.span[0], t.blade.twist)
         for fld, modes in blade_fields_spec:
             fn = _shapes_for(t, fld, modes, rotor_speed_for_shapes)
             evaluated[fld] = (fn(sb_nodes / L), fn(np.array([1.0])), fn(fine_b / L))
             shapes[fld] = fn
+            if blade_ed:
+                # ElastoDyn's discrete twisted shapes replace the analytic ones at
+                # the nodes and tip (as differences to e phi, see FieldShapes)
+                at_nodes, at_tip = evaluated[fld][:2]
+                theta = np.interp(sb_nodes, t.blade.span - t.blade.span[0], t.blade.twist)
+                disp, slope, dtip, _ = elastodyn_twisted(fld, float(wb_nodes[0]), at_nodes.ddphi / L**2,
+                                                         theta if structural_twist else 0.0 * theta)
+                e = FIELD_DIRECTION[fld][None, :, None]
+                dn = disp - e * at_nodes.phi[:, None, :]
+                dt_ = dtip - e[:, :, 0] * at_tip.phi[:, :1]
+                twisted[fld] = (None, slope - e * (at_nodes.dphi / L)[:, None, :], dn, dt_)
+                grid = np.concatenate([[0.0], sb_nodes, [L]])
+                blade_twist[fld] = (grid, np.concatenate([np.zeros(dn.shape[:2] + (1,)), dn, dt_[:, :, None]],
+                                                         axis=-1))
+            elif structural_twist and np.any(t.blade.twist != 0.0):
+                disp, slope = twist_correction(fld, fine_b, evaluated[fld][2].ddphi / L**2, theta_fine)
+                twisted[fld] = (disp, slope, interpolate_fine(fine_b, disp, sb_nodes), disp[:, :, -1])
+                blade_twist[fld] = (fine_b, disp)
         root = t.blade.root_offset
         for b in range(1, t.num_blades + 1):
             psi = 2 * np.pi * (b - 1) / t.num_blades
@@ -338,12 +406,18 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                 dofs = field_dofs(fld, modes.count, blade=b)
                 fdofs.setdefault(fld, []).append(dofs)
                 at_nodes, at_tip, fine = evaluated[fld]
+                tw = twisted.get(fld)
                 flds.append(FieldShapes(fld, dofs, at_nodes.phi, at_nodes.dphi / L, at_nodes.ddphi / L**2,
                                         at_tip.phi[:, 0], at_tip.dphi[:, 0] / L, fine.dphi / L,
                                         tuple(t.blade.damping_ratio.get(fld, ())),
-                                        tuple(getattr(t.blade, "stiffness_tuners", {}).get(fld, ()))))
+                                        tuple(getattr(t.blade, "stiffness_tuners", {}).get(fld, ())),
+                                        twist_nodes=None if tw is None else tw[2],
+                                        twist_tip=None if tw is None else tw[3],
+                                        twist_slope_fine=None if tw is None or blade_ed else tw[1],
+                                        twist_slope_nodes=tw[1] if tw is not None and blade_ed else None))
             body, btip = build_flexible_body(f"blade{b}", bj, blade_beam, flds,
-                                             shortening=geometric_stiffening, min_nodes=blade_nodes)
+                                             shortening=geometric_stiffening, min_nodes=blade_nodes,
+                                             ed_nodes=(sb_nodes, wb_nodes) if blade_ed else None)
             btip = {**btip, "length": btip["length"] - root}
             body = _blade_from_root(body, btip, root, t.tip_mass[b - 1])
             w_body = np.append(wb_nodes, 0.0) if t.tip_mass[b - 1] > 0 else wb_nodes
@@ -359,4 +433,4 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     free_all = elastic + [d for d in RIGID_DOFS if d in free]
     system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
     return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
-                        reaction_names, blade_fields)
+                        reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed))

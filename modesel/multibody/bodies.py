@@ -90,6 +90,9 @@ class FlexibleBody:
         -1/2 q_e^T S_k q_e along `axis` (None = zeroth-order field).
     torsion : (N, ne) elastic twist of each node per unit q_e [rad/unit].
     stiffness, damping : (ne, ne) elastic K_e [N/m] and D_e [N s/m] (eq. A16).
+    field_mass : (ne, ne) generalised mass of each field's shapes alone
+        (block-diagonal, untwisted shapes: ElastoDyn's MBF/MBE/MTFA), which
+        defines the field frequencies of the modal damping; None: from `shapes`.
     """
 
     name: str
@@ -104,6 +107,7 @@ class FlexibleBody:
     node_polar_inertia: np.ndarray | None = None
     stiffness: np.ndarray | None = None
     damping: np.ndarray | None = None
+    field_mass: np.ndarray | None = None
 
     @property
     def n_elastic(self) -> int:

@@ -185,11 +185,17 @@ def modes(lin: LinearModel, include_rigid: bool = False, tol_hz: float = 1e-5) -
 
     One entry per complex-conjugate pair (or per real eigenvalue), labelled
     by modal participation (module doc)."""
-    n = len(lin.names)
-    lam, left, right = scipy.linalg.eig(state_matrix(lin), left=True, right=True)
+    return state_modes(state_matrix(lin), lin.names, include_rigid, tol_hz)
+
+
+def state_modes(A: np.ndarray, names, include_rigid: bool = False, tol_hz: float = 1e-5) -> list:
+    """`modes` of a first-order state matrix A (2n x 2n, states (q, qd)) whose
+    n coordinates are `names`: e.g. OpenFAST's linearisation."""
+    n = len(names)
+    lam, left, right = scipy.linalg.eig(A, left=True, right=True)
     per_mode, cluster, per_cluster = participation(lam, left, right, n)
     kept = [i for i in representatives(lam) if include_rigid or frequency_damping(lam[i])[0] >= tol_hz]
-    labels = unique_labels(lin.names, per_mode, cluster, per_cluster, kept)
+    labels = unique_labels(names, per_mode, cluster, per_cluster, kept)
     out = []
     for i in kept:
         f, zeta = frequency_damping(lam[i])

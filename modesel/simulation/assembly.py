@@ -158,6 +158,8 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
     model = build_turbine(scene.turbine, ms, free=spec.free, fixed=spec.fixed, prescribed=spec.prescribed,
                           gravity=bool(scene.effect("gravity")),
                           geometric_stiffening=bool(scene.effect("geometric_stiffening")),
+                          structural_twist=bool(scene.effect("structural_twist")),
+                          elastodyn_nodes=bool(scene.effect("elastodyn_nodes", False)),
                           rotor_speed_for_shapes=scene.constant_speed.get(ROTOR_AZIMUTH, init.get("RotSpeed", 0.0)),
                           pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
                           reactions=spec.reactions, damping=spec.damping)
@@ -181,16 +183,51 @@ def initial_state(model, init: dict):
     q0 = np.zeros(len(pos))
     qd0 = np.zeros(len(pos))
     for fld, dofs in model.field_dofs.items():
+        if is_blade_field(fld):
+            continue                                              # below, both fields at once
         key, sign = FIELD_INITIAL[fld]
-        for group in (dofs if is_blade_field(fld) else [dofs]):    # blade fields: one group per blade
-            if group and group[0] in pos:
-                q0[pos[group[0]]] = sign * init.get(key, 0.0)
+        if dofs and dofs[0] in pos:
+            q0[pos[dofs[0]]] = sign * init.get(key, 0.0)
+    n_blades = max((len(model.field_dofs.get(f, [])) for f in ("blade_flap", "blade_edge")), default=0)
+    for b in range(n_blades):
+        for dof, value in initial_blade(model, b, init.get("OoPDefl", 0.0), init.get("IPDefl", 0.0)).items():
+            if dof in pos:
+                q0[pos[dof]] = value
     for dof, key in RIGID_INITIAL.items():
         if dof in pos:
             q0[pos[dof]] = init.get(key, 0.0)
     if ROTOR_AZIMUTH in pos:
         qd0[pos[ROTOR_AZIMUTH]] = init.get("RotSpeed", 0.0)
     return q0, qd0
+
+
+def initial_blade(model, b: int, oop: float, ip: float) -> dict:
+    """{DOF: value} of blade index `b` (0-based) whose tip is deflected by
+    `oop` out of plane and `ip` in plane [m], along the x and y axes of the
+    coned (unpitched) blade frame, as ElastoDyn's InitBlDefl: the whole
+    deflection goes to the first flap mode and the first edge mode (the
+    second flap mode starts at 0; without flap DOFs, the first edge mode
+    alone), whose tip displacements (twisted shapes, pitched frame) are
+    turned by the pitch into the coned frame; the 2x2 system is solved, or,
+    with one mode, its least-squares solution (ElastoDyn's formula)."""
+    cols = []
+    for fld in ("blade_flap", "blade_edge"):
+        groups = model.field_dofs.get(fld, [])
+        if b < len(groups) and groups[b]:
+            cols.append(groups[b][0])
+    if not cols or (oop == 0.0 and ip == 0.0):
+        return {}
+    c, s = np.cos(model.pitch), np.sin(model.pitch)
+    A = np.empty((2, len(cols)))
+    for k, dof in enumerate(cols):
+        u = model.blade_tip_displacement(dof)
+        A[:, k] = (u[0] * c + u[1] * s, -u[0] * s + u[1] * c)        # pitched -> coned frame
+    target = np.array([oop, ip])
+    if len(cols) == 2 and abs(np.linalg.det(A)) > 1e-12:
+        x = np.linalg.solve(A, target)
+    else:
+        x = np.linalg.lstsq(A, target, rcond=None)[0]
+    return dict(zip(cols, x))
 
 
 def collective(pitch) -> float:

@@ -15,7 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from modesel.multibody.linearize import LinearModel, linearize
+from modesel.errors import ModeselError
+from modesel.multibody.linearize import LinearModel, linearize, state_modes
 from modesel.vocabulary import (MULTIBLADE_PARTS, ROTOR_AZIMUTH, TOWER_FIELDS, blade_dof_type, multiblade_name,
                                 parse_dof)
 
@@ -122,3 +123,49 @@ def with_whirl(modes: list, names, omega: float) -> list:
             whirl = "forward" if np.imag(np.conj(a) * c) * omega < 0 else "backward"
         out.append(replace(m, whirl=whirl) if whirl else m)
     return out
+
+
+def openfast_modes(lins):
+    """Modes of OpenFAST linearisations: `lins` is one `.lin` (parked rotor)
+    or several at equally spaced azimuths of one revolution (turning rotor).
+
+    Three-bladed rotors are transformed to multi-blade coordinates (MBC3,
+    Bir 2008, NREL/CP-500-42553, eq. 14-20): blade DOF X of blade b =
+    X_coll + cos(psi_b) X_cos + sin(psi_b) X_sin with psi_b = psi + 2 pi
+    (b - 1) / 3; with x = T x_nr, T = [[T1, 0], [Omega T2, T1]], the
+    non-rotating state matrix is A_nr = T^-1 (A T - dT/dt),
+    dT/dt = [[Omega T2, 0], [Omega^2 T3, Omega T2]] (T2 = dT1/dpsi,
+    T3 = d2T1/dpsi2), averaged over the azimuths. Its modes are found and
+    labelled exactly as modesel's own (`multibody.linearize.state_modes`:
+    modal participation, scale-free, so OpenFAST's A needs no mass matrix).
+    A parked rotor (speed 0) uses the one azimuth of its file.
+    Returns [(frequency_hz, damping_ratio, label)], labels as modesel's
+    `linearize_scene` (F1_coll, E1_cos, TFA1, DrTr ...)."""
+    from modesel.turbine.openfast_output import OpenFastLinearization
+    lins = [lins] if isinstance(lins, OpenFastLinearization) else list(lins)
+    first = lins[0]
+    n = len(first.names)
+    groups = {}
+    for i, name in enumerate(first.names):
+        if name[0] == "B" and name[1].isdigit():
+            groups.setdefault(name[2:], [None] * 3)[int(name[1]) - 1] = i
+    mbc = len(groups) > 0 and all(None not in g for g in groups.values())
+    names = list(first.names)
+    if mbc:
+        for key, idx in groups.items():
+            names[idx[0]], names[idx[1]], names[idx[2]] = f"{key}_coll", f"{key}_cos", f"{key}_sin"
+    A_nr = np.zeros((2 * n, 2 * n))
+    for lin in lins:
+        if lin.names != first.names:
+            raise ModeselError("linearisation files with different states", file=lin.path)
+        if not mbc:
+            A_nr += lin.A
+            continue
+        om = lin.rotor_speed
+        T1, T2, T3 = mbc_matrices(n, groups, lin.azimuth)
+        Z = np.zeros((n, n))
+        T = np.block([[T1, Z], [om * T2, T1]])
+        Td = np.block([[om * T2, Z], [om**2 * T3, om * T2]])
+        A_nr += np.linalg.solve(T, lin.A @ T - Td)
+    A_nr /= len(lins)
+    return [(m.frequency_hz, m.damping_ratio, m.label) for m in state_modes(A_nr, names)]

@@ -243,7 +243,9 @@ def scene_from_elastodyn(path: Path) -> Scene:
     """ElastoDyn main file (or .fst) as a scene: DOF flags, initial conditions,
     masses and geometry as OpenFAST uses them; the deck's polynomials are the
     default mode set. TMax/DT_Out come from the .fst when given (else 10 s /
-    0.01 s). A rotor without GenDOF spins at the constant RotSpeed."""
+    0.01 s). A rotor without GenDOF spins at the constant RotSpeed. The
+    beams are integrated on the deck's analysis nodes as ElastoDyn does
+    (effect flag `elastodyn_nodes`, model.template.build_turbine)."""
     from modesel.turbine.elastodyn import read_elastodyn
     turbine = read_elastodyn(path)
     flags = turbine.dofs
@@ -275,7 +277,8 @@ def scene_from_elastodyn(path: Path) -> Scene:
     sim = getattr(turbine, "simulation", {}) or {}
     return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
                  ModeSet(fields), tuple(free), fixed, speed, initial,
-                 {"gravity": True, "geometric_stiffening": True, "damping": True}, {}, str(path))
+                 {"gravity": True, "geometric_stiffening": True, "damping": True, "elastodyn_nodes": True},
+                 {}, str(path))
 
 
 def apply_overrides(turbine, over: dict, file=None):

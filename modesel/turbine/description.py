@@ -69,3 +69,6 @@ class Turbine:
     initial: dict = field(default_factory=dict)
     source: str | None = None
     notes: tuple = ()
+    #: ElastoDyn's analysis nodes per blade / tower (BldNodes, TwrNodes), None if unknown
+    blade_nodes: int | None = None
+    tower_nodes: int | None = None

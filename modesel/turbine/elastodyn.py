@@ -230,7 +230,16 @@ def read_elastodyn(path) -> Turbine:
         gravity=gravity,
         elastodyn_shapes={**tower_shapes, **blade_shapes},
         dofs=dofs, initial=initial, source=str(path), notes=tuple(notes),
+        blade_nodes=_node_count(num("BldNodes", "BldNodes"), "BldNodes", ed_deck),
+        tower_nodes=_node_count(num("TwrNodes", "TwrNodes"), "TwrNodes", ed_deck),
     )
+
+
+def _node_count(value: float, label: str, deck) -> int:
+    """An analysis node count (BldNodes, TwrNodes): a positive integer."""
+    if value != int(value) or value < 1:
+        raise ModeselError(f"must be a positive integer, got {deck.value(label)!r}", file=str(deck.path), field=label)
+    return int(value)
 
 
 # --------------------------------------------------------------------------

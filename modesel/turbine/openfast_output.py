@@ -10,6 +10,8 @@ converted: OpenFAST writes angles in deg and speeds in rpm.
 """
 from __future__ import annotations
 
+import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -105,3 +107,71 @@ def read_openfast_output(path) -> pd.DataFrame:
     frame.attrs["source"] = str(path)
     frame.attrs["description"] = str(output.info.get("description", ""))
     return frame
+
+
+# ------------------------------------------------------------------ linearisation (.lin) files
+#: ElastoDyn's internal DOF index (in a .lin state description) -> modesel coordinate name
+_ED_DOFS = {"DOF_TFA1": "TFA1", "DOF_TFA2": "TFA2", "DOF_TSS1": "TSS1", "DOF_TSS2": "TSS2",
+            "DOF_DrTr": "DrTr", "DOF_GeAz": "GeAz", "DOF_Yaw": "Yaw"}
+
+
+@dataclass
+class OpenFastLinearization:
+    """One OpenFAST `.lin` file: the first-order state matrix A of
+    dx/dt = A x (+ B u) about its operating point, with x = [q; dq/dt].
+
+    names: modesel name of each coordinate q (TFA1, TSS1, DrTr, B1F1, B2E1,
+    GeAz ...), in A's order; rotating: whether the coordinate is in the
+    rotating frame (a blade DOF); azimuth [rad] of blade 1 (0 = up) and
+    rotor_speed [rad/s] at the linearisation time; time [s]."""
+
+    path: str
+    A: np.ndarray
+    names: list
+    rotating: list
+    azimuth: float
+    rotor_speed: float
+    time: float
+
+
+def read_openfast_lin(path) -> OpenFastLinearization:
+    """Read the state matrix A and the state list of an OpenFAST `.lin` file
+    (text, as written by OpenFAST's linearisation, or gzip-compressed
+    `.lin.gz`; only ElastoDyn states, i.e. second-order structural DOFs,
+    are supported)."""
+    import gzip
+    path = Path(path)
+    if not path.is_file():
+        raise ModeselError("OpenFAST linearisation file not found", file=str(path))
+    raw = path.read_bytes()
+    lines = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode(errors="replace").splitlines()
+
+    def value(label):
+        for line in lines:
+            if line.strip().startswith(label):
+                return float(line.split(":", 1)[1].split()[0])
+        raise ModeselError(f"no '{label}' line", file=str(path))
+
+    n = int(value("Number of continuous states"))
+    start = next((i for i, line in enumerate(lines) if line.startswith("Order of continuous states:")), None)
+    a_at = next((i for i, line in enumerate(lines) if line.startswith("A:")), None)
+    if start is None or a_at is None or n % 2:
+        raise ModeselError("not a .lin file with continuous states and an A matrix", file=str(path))
+    names, rotating = [], []
+    for line in lines[start + 3:start + 3 + n // 2]:
+        m = re.search(r"internal DOF index = (DOF_\w+(?:\((\d+),(\d+)\))?)", line)
+        if m is None:
+            raise ModeselError(f"unsupported state (not an ElastoDyn DOF): {line.strip()[:80]}", file=str(path))
+        key = m.group(1)
+        if key.startswith(("DOF_BF", "DOF_BE")):
+            names.append(f"B{m.group(2)}{'F' if key.startswith('DOF_BF') else 'E'}{m.group(3)}")
+        elif key in _ED_DOFS:
+            names.append(_ED_DOFS[key])
+        else:
+            raise ModeselError(f"unsupported ElastoDyn DOF {key}", file=str(path))
+        rotating.append(line.split()[2] == "T")
+    A = np.array([[float(v) for v in lines[a_at + 1 + i].split()] for i in range(n)])
+    if A.shape != (n, n):
+        raise ModeselError(f"A is {A.shape}, expected {n} x {n}", file=str(path))
+    return OpenFastLinearization(str(path), A, names, rotating, value("Azimuth"), value("Rotor Speed"),
+                                 value("Simulation time"))

@@ -44,9 +44,11 @@ def modes(**fields) -> ModeSet:
 
 
 def conservative(sc):
-    """`sc` with damping off and only gravity (no effect doing work)."""
+    """`sc` with damping off and only gravity (no effect doing work); the
+    scene's kinematic flags (geometric stiffening, structural twist) kept."""
     sc.effects = {"gravity": bool(sc.effects.get("gravity", True)),
                   "geometric_stiffening": bool(sc.effects.get("geometric_stiffening", True)),
+                  "structural_twist": bool(sc.effects.get("structural_twist", True)),
                   "damping": False}
     assert not sc.constant_speed, "prescribed motion does work: energy is not conserved"
     return sc

@@ -9,8 +9,12 @@ behind the `Effect` interface (`base.py`), selected by `select(scene)`.
     aero        BEM blade loads with structural motion and Pitt-Peters skew (second paper section 3)
     tower_drag  quasi-steady tower drag (second paper eq. 51)
 
-`gravity` and `geometric_stiffening` are flags of the system itself (the
-engine's kinematics), not modules. An effect that is off is not imported,
+`gravity`, `geometric_stiffening`, `structural_twist` (blade shapes that
+turn with the structural twist, model/template.py) and `elastodyn_nodes` (beams
+integrated on the deck's ElastoDyn analysis nodes, model/template.py) are flags of
+the system itself (the engine's kinematics), not modules; the first three
+default to true, `elastodyn_nodes` to false except in a scene read from an
+ElastoDyn or .fst file. An effect that is off is not imported,
 not constructed and never evaluated.
 """
 from __future__ import annotations
@@ -27,7 +31,7 @@ MODULES = {
     "aero": "aero",
     "tower_drag": "tower_drag",
 }
-FLAGS = ("gravity", "geometric_stiffening")
+FLAGS = ("gravity", "geometric_stiffening", "structural_twist", "elastodyn_nodes")
 #: effects that may be on without being named in the scene (damping always,
 #: drivetrain when DrTr is free; see their `default_on_for`)
 DEFAULT_ON = ("damping", "drivetrain")

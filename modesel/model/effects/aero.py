@@ -33,6 +33,16 @@ Needs [effects.wind]. At every right-hand side:
    multiplied by the node quadrature weights w_k [m]: node force
    F_k = f(s_k) w_k, applied at the deflected node. The sectional pitching
    moment is not applied (the blades have no torsion DOF).
+   On ElastoDyn's discrete blade nodes (`elastodyn_nodes`, a handful of
+   midpoints that a midpoint rule on f would under-resolve near the tip)
+   the transfer follows OpenFAST's mesh mapping instead: the AeroDyn line
+   loads (linear between stations) are lumped to point loads at the
+   stations, F_a = int N_a f ds (hat functions N_a), and each is carried to
+   the structural nodes by the transpose of the linear interpolation (and
+   extrapolation beyond the first and last node) along the span, which
+   keeps the total force and its moment about the root and does the same
+   virtual work as F_a at r_a on the piecewise-linear blade line
+   (`_lumped_transfer`).
 
 Channels: RotThrust [kN] = sum of node forces along x_s, RotTorq [kN m] =
 sum of their moments about x_s through the apex (the loads the structure
@@ -115,8 +125,11 @@ class BladeAerodynamics(Effect):
         self.r = np.broadcast_to((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None],
                                  (B, M)).copy()
         nodes_span = self.nodes[0].s0[:, 2]
-        self.lo, self.frac = _linear_weights(span, nodes_span)
         self.weights = np.asarray(model.weights[self.names[0]], float)
+        if model.blade_elastodyn_nodes:
+            self.transfer = _lumped_transfer(span, nodes_span, self.weights > 0)
+        else:
+            self.transfer = _sampled_transfer(span, nodes_span, self.weights)
         self.hub = eq.body_index["hub"]
         self.blades = np.array([eq.body_index[n] for n in self.names], dtype=np.int64)
         self.pitch = model.pitch
@@ -140,7 +153,7 @@ class BladeAerodynamics(Effect):
         inflow(R, vec, self.hub, self.blades, self.pos, self.vel, U, self.shear, self.z_ref, self.cdir,
                self.sdir, self.vn, self.vt, self.skew, self.psi, self.en, self.et)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi)
-        distribute(fn, ft, self.en, self.et, self.lo, self.frac, self.weights, self.forces)
+        distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
@@ -186,6 +199,46 @@ def rotor_loads(forces, pos, R_hub, apex):
         thrust += f[0] * R_hub[0, 0] + f[1] * R_hub[1, 0] + f[2] * R_hub[2, 0]
         torque += m0 * R_hub[0, 0] + m1 * R_hub[1, 0] + m2 * R_hub[2, 0]
     return thrust, torque
+
+def _sampled_transfer(stations, at, weights):
+    """(nodes, stations) matrix T: node force = sum_a T[i, a] f_a with f
+    interpolated linearly to the node and times its weight (module doc 5)."""
+    lo, frac = _linear_weights(stations, at)
+    T = np.zeros((len(at), len(stations)))
+    rows = np.arange(len(at))
+    T[rows, lo] += (1.0 - frac) * weights
+    T[rows, lo + 1] += frac * weights
+    return T
+
+
+def _lumped_transfer(stations, at, structural):
+    """(nodes, stations) matrix T of the lumped transfer (module doc 5):
+    L (stations, stations) lumps the piecewise-linear line load to point
+    loads, F_a = sum over the two adjacent elements of h (2 f_a + f_b) / 6;
+    W (nodes, stations) is the transpose of the linear interpolation of the
+    `structural` nodes' positions to the stations (end elements extrapolated),
+    so sum_i W[i, a] = 1 and sum_i W[i, a] z_i = z_a."""
+    stations = np.asarray(stations, float)
+    h = np.diff(stations)
+    Lmp = np.zeros((len(stations), len(stations)))
+    for k, hk in enumerate(h):
+        Lmp[k, k] += hk / 3.0
+        Lmp[k, k + 1] += hk / 6.0
+        Lmp[k + 1, k + 1] += hk / 3.0
+        Lmp[k + 1, k] += hk / 6.0
+    idx = np.flatnonzero(structural)
+    z = np.asarray(at, float)[idx]
+    W = np.zeros((len(at), len(stations)))
+    if len(idx) == 1:
+        W[idx[0], :] = 1.0
+        return W @ Lmp
+    lo = np.clip(np.searchsorted(z, stations, side="right") - 1, 0, len(z) - 2)
+    a = (stations - z[lo]) / (z[lo + 1] - z[lo])
+    cols = np.arange(len(stations))
+    W[idx[lo], cols] += 1.0 - a
+    W[idx[lo + 1], cols] += a
+    return W @ Lmp
+
 
 def _linear_weights(stations, at):
     """Index lo and fraction so that f(at) = (1-frac) f[lo] + frac f[lo+1]
@@ -237,14 +290,16 @@ def inflow(R, vec, hub, blades, pos, vel, U, shear, z_ref, cdir, sdir, vn, vt, s
 
 
 @njit(cache=True)
-def distribute(fn, ft, en, et, lo, frac, weights, out):
-    """Node forces out[b, i] = w_i (f_n(s_i) e_n + f_t(s_i) e_t), loads per
-    unit length interpolated linearly from the stations (module doc, step 5)."""
+def distribute(fn, ft, en, et, T, out):
+    """Node forces out[b, i] = sum_a T[i, a] (f_n,a e_n + f_t,a e_t) from the
+    loads per unit length at the stations (module doc, step 5)."""
     for b in range(out.shape[0]):
         for i in range(out.shape[1]):
-            j, a = lo[i], frac[i]
-            n = ((1.0 - a) * fn[b, j] + a * fn[b, j + 1]) * weights[i]
-            t = ((1.0 - a) * ft[b, j] + a * ft[b, j + 1]) * weights[i]
+            n = 0.0
+            t = 0.0
+            for a in range(T.shape[1]):
+                n += T[i, a] * fn[b, a]
+                t += T[i, a] * ft[b, a]
             for c in range(3):
                 out[b, i, c] = n * en[b, c] + t * et[b, c]
 

@@ -67,7 +67,13 @@ def field_ratio(beam, fld) -> float:
 
 def fundamental(body, sl) -> float:
     """Lowest natural frequency [rad/s] of the coordinates `sl` of `body`
-    alone (beam only, undeformed): K phi = lambda^2 M phi."""
+    alone (beam only, undeformed): K phi = lambda^2 M phi, M the field's own
+    generalised mass (untwisted shapes, as the modal damping's field
+    frequencies; `FlexibleBody.field_mass`)."""
+    if body.field_mass is not None:
+        M = body.field_mass[np.ix_(sl, sl)]
+        K = body.stiffness[np.ix_(sl, sl)]
+        return float(np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[0]))
     Phi = body.shapes[:, :, sl]
     M = np.einsum("k,kil,kim->lm", body.node_mass, Phi, Phi)
     if body.torsion is not None and body.node_polar_inertia is not None:
