@@ -256,8 +256,9 @@ def _collective(pitch) -> float:
 #: units of the output channels (outputs.py), OpenFAST's
 _CHANNEL_UNITS = (
     (r"Time", "s"), (r"Azimuth|TTDspTwst|PtfmPitch|NacYaw", "deg"), (r"RotSpeed|GenSpeed", "rpm"),
-    (r"TTDsp(FA|SS)|OoPDefl\d|IPDefl\d|PtfmSurge", "m"), (r"RotThrust", "kN"),
-    (r"RotTorq|GenTq|TwrBsMyt|RootMyc\d", "kN-m"), (r"GenPwr", "kW"),
+    (r"TTDsp(FA|SS)|OoPDefl\d|IPDefl\d|TipD[xyz]c\d|PtfmSurge", "m"), (r"RotThrust", "kN"),
+    (r"RotTorq|LSShftTq|HSShftTq|GenTq|TwrBsM[xy]t|RootM[xy]c\d", "kN-m"), (r"GenPwr|RotPwr", "kW"),
+    (r"BldPitch\d", "deg"), (r"RtAeroFxh", "N"), (r"RtAeroMxh", "N-m"), (r"RtAeroPwr", "W"), (r"RtAeroCp", "-"),
     (r"Q_(TFA|TSS|B\d[FE])\d+|Q_PtfmSurge", "m"), (r"Q_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad"),
     (r"QD_(TFA|TSS|B\d[FE])\d+|QD_PtfmSurge", "m/s"), (r"QD_(TTor\d+|GeAz|DrTr|HSSTw|Yaw|PtfmPitch)", "rad/s"),
 )

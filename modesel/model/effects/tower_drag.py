@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modesel.aero.wind import wind_velocity
 from modesel.model.effects.aero import aerodyn_deck, wind_of
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
@@ -39,21 +40,17 @@ class TowerDragLoads(Effect):
         if deck.tower is None:
             raise self.error("the AeroDyn deck has no tower table (TwrElev, TwrDiam, TwrCd)", "aerodyn")
         self.drag = deck.tower
-        self.rho = deck.air_density
+        self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
+                    else deck.air_density)
         self.nodes = PointSet.of_body(built.eq, "tower")
         z_rest = self.nodes.kinematics(built.frames(*_rest(built)), *_rest(built))[0][:, 2]
         d, cd = self.drag.properties(z_rest)
         self.coef = 0.5 * self.rho * cd * d * np.asarray(built.model.weights["tower"], float)
-        w = self.wind
-        self.shear, self.z_ref = w.shear_exponent, w.reference_height
-        self.cdir, self.sdir = np.cos(w.direction), np.sin(w.direction)
         self.force = np.empty((len(z_rest), 3))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         pos, vel = self.nodes.kinematics(built.frames(q_all, qd_all), q_all, qd_all)
-        U = self.wind.speed if self.wind.times is None else float(self.wind.reference_speed(t))
-        drag_forces(pos, vel, U, self.shear, self.z_ref, self.cdir, self.sdir,
-                    self.coef, self.force)
+        drag_forces(pos, vel, self.wind.params(t), self.coef, self.force)
         f = node_forces.get("tower")
         node_forces["tower"] = self.force if f is None else f + self.force   # overwritten next call
 
@@ -65,15 +62,15 @@ def _rest(built):
 
 
 @njit(cache=True)
-def drag_forces(pos, vel, U, shear, z_ref, cdir, sdir, coef, out):
+def drag_forces(pos, vel, wp, coef, out):
     """Eq. 51 at every node: out_k = coef_k |v_rel| v_rel with v_rel the
-    horizontal wind (power law at the node height) minus the node's
-    horizontal velocity; coef_k = 1/2 rho Cd d w_k."""
+    horizontal wind at the node (`aero.wind.wind_velocity`, parameters wp)
+    minus the node's horizontal velocity; coef_k = 1/2 rho Cd d w_k (AeroDyn's
+    TwrAero load, ADTwr_CalcOutput: the components normal to the tower)."""
     for k in range(pos.shape[0]):
-        z = pos[k, 2]
-        u = U * (z / z_ref) ** shear if z > 0.0 else 0.0
-        v0 = u * cdir - vel[k, 0]
-        v1 = u * sdir - vel[k, 1]
+        u0, u1, _ = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+        v0 = u0 - vel[k, 0]
+        v1 = u1 - vel[k, 1]
         s = coef[k] * np.sqrt(v0 * v0 + v1 * v1)
         out[k, 0] = s * v0
         out[k, 1] = s * v1
