@@ -107,6 +107,7 @@ def scene_from_fst(path):
     effects["pitch"] = {"collective_deg": float(pitch_deg[0])}
     scene.initial["BlPitch"] = float(np.deg2rad(pitch_deg[0]))
     if f.integer("CompAero") == 2:
+        import modesel.aero  # noqa: F401  (modesel.aero and turbine.aerodyn import each other: aero first)
         from modesel.turbine.aerodyn import aerodyn_case_options
         ad_path = f.referenced("AeroFile")
         ad = aerodyn_case_options(ad_path)
