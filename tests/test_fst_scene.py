@@ -105,6 +105,7 @@ def test_tmax_option_overrides_the_fst():
 
 
 def test_old_aerodyn_layout_options_are_mapped_or_refused():
+    import modesel.aero  # noqa: F401  (modesel.aero and turbine.aerodyn import each other: aero first)
     from modesel.turbine.aerodyn import aerodyn_case_options
     with pytest.raises(ModeselError, match=r"NREL5MW_AD\.dat: AFAeroMod: AFAeroMod = 2 \(unsteady"):
         aerodyn_case_options(ROOT / "modesel" / "turbine" / "data" / "nrel5mw" / "NREL5MW_AD.dat")
