@@ -50,7 +50,12 @@ RIGID_DOFS = ("GeAz", "DrTr", "HSSTw", "Yaw", "PtfmSurge", "PtfmPitch")
 SCENE_DOFS = ("GeAz", "DrTr", "Yaw", "PtfmSurge", "PtfmPitch")
 #: the rotor azimuth, the only coordinate a scene can turn at a constant speed
 ROTOR_AZIMUTH = "GeAz"
+#: reaction coordinates (fixed at 0) whose generalised forces are the loads
+#: TwrBsMyt, TwrBsMxt (tower base) and RotThrust (low-speed shaft thrust)
 TOWER_BASE_REACTION = "TwrBsRyt"
+TOWER_BASE_REACTION_X = "TwrBsRxt"
+SHAFT_THRUST_REACTION = "LSShftTxa"
+REACTIONS = (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, SHAFT_THRUST_REACTION)
 MULTIBLADE_PARTS = ("coll", "cos", "sin")
 #: rigid coordinates measured in m (the others in rad)
 TRANSLATIONS = ("PtfmSurge",)
@@ -72,7 +77,7 @@ class Dof(NamedTuple):
 _TOWER = re.compile(r"(TFA|TSS|TTor)([1-9]\d*)")
 _BLADE = re.compile(r"B([1-9]\d*)([FE])([1-9]\d*)")
 _MULTIBLADE = re.compile(r"([FE])([1-9]\d*)_(coll|cos|sin)")
-_ROOT_REACTION = re.compile(r"RootRyc([1-9]\d*)")
+_ROOT_REACTION = re.compile(r"RootR[xy]c([1-9]\d*)")
 _FIELD_OF_PREFIX = {p: f for f, p in FIELD_PREFIX.items()}
 
 
@@ -88,7 +93,7 @@ def parse_dof(name: str) -> Dof:
         return Dof("drivetrain")
     if name in RIGID_BODY_DOFS:
         return Dof("rigid")
-    if name == TOWER_BASE_REACTION:
+    if name in REACTIONS:
         return Dof("reaction")
     if m := _ROOT_REACTION.fullmatch(name):
         return Dof("reaction", int(m.group(1)))
@@ -124,9 +129,11 @@ def multiblade_name(dof_type: str, part: str) -> str:
     return f"{dof_type}_{part}"
 
 
-def root_reaction(blade: int) -> str:
-    """Name of blade `blade`'s root reaction coordinate."""
-    return f"RootRyc{blade}"
+def root_reaction(blade: int, axis: str = "y") -> str:
+    """Name of blade `blade`'s root reaction coordinate about the coned `axis` (x or y)."""
+    if axis not in ("x", "y"):
+        raise ValueError(f"root reaction axis must be x or y, got {axis!r}")
+    return f"RootR{axis}c{blade}"
 
 
 def is_blade_field(field: str) -> bool:

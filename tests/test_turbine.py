@@ -168,7 +168,7 @@ def test_scene_without_aero_never_evaluates_aerodynamics(monkeypatch):
     monkeypatch.setattr(bem.BemSolver, "solve", forbidden)
     monkeypatch.setattr(aero.BladeAerodynamics, "__init__", forbidden)
     result = simulate(scene("turbine_rated_gravity"), tmax=1.0)
-    assert "RotThrust" not in result.outputs and "GenPwr" not in result.outputs
+    assert "RtAeroFxh" not in result.outputs and "GenPwr" not in result.outputs
     assert "TwrBsMyt" in result.outputs and "RootMyc1" in result.outputs
     with pytest.raises(AssertionError, match="aerodynamics evaluated"):     # the patch is effective
         build(scene("turbine_wind_11p4"))
@@ -329,7 +329,7 @@ def test_rated_wind_thrust_matches_ct_table_and_rigid_bem(rated_run):
     from modesel.aero import read_aerodyn, steady_rotor
     out = rated_run.outputs
     last = out[out.Time >= out.Time.iloc[-1] - 20.0]
-    thrust = last.RotThrust.mean() * 1e3
+    thrust = last.RtAeroFxh.mean()
     omega = last.RotSpeed.mean() * RPM
     U, R, rho = 11.4, 63.0, 1.225
     table = read_ct(omega * R / U) * 0.5 * rho * np.pi * R**2 * U**2
@@ -364,7 +364,7 @@ def test_rated_wind_tower_top_displacement_matches_compliance(rated_run):
         "dofs": {"free": ["DrTr"], "constant_speed": {"GeAz": float(last.RotSpeed.mean())}}})
     g = build(gravity_only)
     delta_g = g.q0[g.model.system.free.index("TFA1")]
-    thrust = last.RotThrust.mean() * 1e3
+    thrust = last.RtAeroFxh.mean()
     estimate = thrust * (c_ff + dz * c_fm)
     delta = last.TTDspFA.mean() - delta_g
     print(f"\ntower-top FA: {delta:.4f} m from thrust vs cantilever estimate {estimate:.4f} m")
@@ -398,7 +398,7 @@ def test_rated_wind_tower_base_moment_balances(rated_run):
     z = np.linspace(0.0, t.tower_height, 500)
     drag = TowerDrag.nrel5mw_default(t.tower_height).load(z, 11.4 * np.ones_like(z))
     drag_moment = np.trapezoid(drag * z, z)
-    thrust = last.RotThrust.mean() * 1e3
+    thrust = last.RtAeroFxh.mean()
     estimate = thrust * (apex[2] * xs[0] - apex[0] * xs[2]) + weight + p_delta + drag_moment
     print(f"\nTwrBsMyt {last.TwrBsMyt.mean():.0f} kN m vs static balance {estimate / 1e3:.0f} kN m")
     assert last.TwrBsMyt.mean() * 1e3 == pytest.approx(estimate, rel=0.02)

@@ -22,7 +22,7 @@ import pytest
 
 from modesel.aero import BemOptions, BemSolver, Wind, read_aerodyn, skew_angles
 from modesel.aero.tower_drag import drag_forces
-from modesel.aero.wind import power_law, power_law_at
+from modesel.aero.wind import COLUMNS, wind_velocity
 from modesel.model.effects.aero import inflow
 from modesel.multibody.kane import KaneEquations
 from modesel.multibody.kinematics import PointSet
@@ -59,11 +59,22 @@ def random_rotation(rng):
 
 @twin("wind_profile")
 def wind_profile(rng):
-    """aero.wind.power_law (numpy) / power_law_at (numba)."""
-    z = np.concatenate([[0.0, -3.0], rng.uniform(-10.0, 200.0, 200)])
-    U, alpha, z_ref = rng.uniform(3.0, 25.0), rng.uniform(-0.1, 0.4), rng.uniform(20.0, 150.0)
-    compiled = np.array([power_law_at(zk, U, alpha, z_ref) for zk in z])
-    return [("u(z)", power_law(z, U, alpha, z_ref), compiled)]
+    """InflowWind's uniform wind: aero.wind.Wind.vector (numpy) / wind_velocity (numba),
+    every column of the table in play (shears, direction, upflow, gust, time)."""
+    n = 200
+    z = np.concatenate([[0.0, -3.0], rng.uniform(-10.0, 200.0, n)])
+    x, y = rng.uniform(-10.0, 10.0, n + 2), rng.uniform(-70.0, 70.0, n + 2)
+    table = np.column_stack([[0.0, 5.0, 12.0], rng.uniform(3.0, 25.0, 3), rng.uniform(-0.5, 0.5, 3),
+                             rng.uniform(-1.0, 1.0, 3), rng.uniform(-0.2, 0.2, 3), rng.uniform(-0.1, 0.4, 3),
+                             rng.uniform(-0.2, 0.2, 3), rng.uniform(-2.0, 2.0, 3), rng.uniform(-0.1, 0.1, 3)])
+    assert table.shape[1] == len(COLUMNS)
+    wind = Wind(table=table, reference_height=rng.uniform(20.0, 150.0), reference_length=rng.uniform(50.0, 150.0))
+    out = []
+    for t in (0.0, 3.3, 20.0):
+        p = wind.params(t)
+        compiled = np.array([wind_velocity(p, xk, yk, zk) for xk, yk, zk in zip(x, y, z)])
+        out.append((f"V(t={t})", wind.vector(z, t, x, y), compiled))
+    return out
 
 
 @twin("tower_drag")

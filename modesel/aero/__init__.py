@@ -7,8 +7,8 @@
   (Prandtl tip/hub loss, Buhl/Glauert, Pitt/Peters); f_n, f_t [N/m].
   `allocate(shape)` + `solve_into(buffers, ...)`: the same without allocation.
 - `steady_rotor(U, Omega, pitch, deck, ...)`: thrust, torque, power, C_P, C_T, C_Q.
-- `Wind`: uniform / time-varying wind with the power-law profile
-  `wind.power_law` (compiled twin `wind.power_law_at`).
+- `Wind`: InflowWind's uniform wind, steady or tabulated in time
+  (`Wind.vector`, compiled twin `wind.wind_velocity`).
 - `TowerDrag.load(z, v_wind, v_tower)`: tower drag per unit length (eq. 51)
   (compiled twin `tower_drag.drag_forces`).
 """

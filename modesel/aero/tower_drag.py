@@ -15,7 +15,7 @@ gives the NREL 5-MW values (diameter 6 m at the base to 3.87 m at the top,
 Cd = 1.0; Jonkman et al. 2009, NREL/TP-500-38060).
 
 `TowerDrag.load` (numpy, any shapes) has a compiled twin, `drag_forces`
-(numba, node loop with the power-law wind of `aero.wind`), for the
+(numba, node loop with the wind of `aero.wind.wind_velocity`), for the
 `tower_drag` effect; tests/test_twins.py holds them equal.
 """
 from __future__ import annotations
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from modesel.aero.wind import power_law_at
+from modesel.aero.wind import wind_velocity
 from modesel.errors import ModeselError
 
 
@@ -94,18 +94,18 @@ class TowerDrag:
 
 
 @njit(cache=True)
-def drag_forces(pos, vel, U, shear, z_ref, cdir, sdir, coef, out):
+def drag_forces(pos, vel, wp, coef, out):
     """Compiled twin of `TowerDrag.load` for 3-vectors at points k (eq. 51):
-    out_k = coef_k |v_rel| v_rel, v_rel the horizontal wind (`power_law_at`
-    the point height pos[k, 2] [m], reference speed U [m/s], exponent
-    `shear`, reference height z_ref [m], direction (cdir, sdir)) minus the
-    point's horizontal velocity vel[k] [m/s]; out[k, 2] = 0. With
-    coef_k = `TowerDrag.coefficient` times a length [m] the result is a force [N]
-    (per unit length [N/m] without)."""
+    out_k = coef_k |v_rel| v_rel, v_rel the horizontal wind at the point
+    (`aero.wind.wind_velocity`, parameters wp = `Wind.params(t)`) minus the
+    point's horizontal velocity vel[k] [m/s]; out[k, 2] = 0 (AeroDyn's TwrAero
+    load, ADTwr_CalcOutput: the components normal to the tower). With
+    coef_k = `TowerDrag.coefficient` times a length [m] the result is a force
+    [N] (per unit length [N/m] without)."""
     for k in range(pos.shape[0]):
-        u = power_law_at(pos[k, 2], U, shear, z_ref)
-        v0 = u * cdir - vel[k, 0]
-        v1 = u * sdir - vel[k, 1]
+        u0, u1, _ = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+        v0 = u0 - vel[k, 0]
+        v1 = u1 - vel[k, 1]
         s = coef[k] * np.sqrt(v0 * v0 + v1 * v1)
         out[k, 0] = s * v0
         out[k, 1] = s * v1

@@ -1,19 +1,28 @@
-"""Wind field: uniform (optionally time-varying) wind with power-law shear.
+"""Wind field: InflowWind's uniform wind (OpenFAST `IfW_FlowField.f90`,
+`UniformField_GetVel`), steady or tabulated in time.
 
-    u(z, t) = U(t) (z / z_ref)^alpha     for z > 0,   u = 0 for z <= 0
+At a point (x, y, z) [m] (ElastoDyn inertial axes: x downwind, y to the
+left looking downwind, z up from the ground) and time t, with the
+parameters interpolated linearly in time (held beyond the table's ends):
 
-U(t) is the speed at the reference height: constant `speed`, or linear
-interpolation in a (time, speed) series, held constant beyond its ends.
-The wind blows horizontally along `direction` [rad], measured from the
-ElastoDyn x axis (downwind) towards y; direction 0 is aligned with the
-un-yawed rotor. `alpha = 0` gives a uniform field; the IEC 61400-1 normal
-wind profile uses alpha = 0.2. The default reference height 90 m is the
-NREL 5-MW hub height.
+    V1 = VelH ((z/RefHt)^ShrV + (ShrH (y cos AngleH + x sin AngleH)
+                                 + LinShrV (z - RefHt)) / RefLength) + VelGust
+    V1' = cos(AngleV) V1 - sin(AngleV) VelV          (upflow AngleV)
+    w   = sin(AngleV) V1 + cos(AngleV) VelV
+    velocity = (V1' cos AngleH, -V1' sin AngleH, w)
 
-The profile is one formula with two implementations: `power_law` (numpy,
-any shapes) and its compiled scalar twin `power_law_at` (numba, called from
-the compiled inflow and tower-drag loops); tests/test_twins.py holds them
-equal.
+(the columns of an InflowWind uniform wind file, WindType 2: time, VelH
+horizontal speed, AngleH direction [positive rotates the flow towards -y],
+VelV vertical speed, ShrH linear horizontal shear, ShrV power-law exponent,
+LinShrV linear vertical shear, VelGust gust speed, optional AngleV upflow).
+Steady wind (WindType 1) is the single row (0, HWindSpeed, 0, 0, 0, PLExp,
+0, 0, 0) with RefLength 1. Below or at the ground (z <= 0) the velocity is
+zero (InflowWind refuses such points).
+
+The short form of a scene's [effects.wind] (`speed`, `shear`,
+`direction` from x towards +y, `time_series` of (t, speed)) is the table
+with AngleH = -direction. alpha = 0.2 gives the IEC 61400-1 normal wind
+profile; the default reference height 90 m is the NREL 5-MW hub height.
 """
 from __future__ import annotations
 
@@ -22,76 +31,134 @@ from numba import njit
 
 from modesel.errors import ModeselError
 
-
-def power_law(z, speed, shear_exponent: float, reference_height: float):
-    """Power-law wind profile u = U (z / z_ref)^alpha for z > 0, 0 for z <= 0.
-
-    z : heights above ground [m] (any shape, broadcast with `speed`).
-    speed : U, the speed at the reference height [m/s].
-    shear_exponent : alpha [-]; reference_height : z_ref [m] (> 0).
-    Returns u [m/s].
-    """
-    z = np.asarray(z, float)
-    ratio = np.where(z > 0, z, 1.0) / reference_height
-    return speed * np.where(z > 0, ratio ** shear_exponent, 0.0)
-
-
-@njit(cache=True)
-def power_law_at(z, speed, shear_exponent, reference_height):
-    """`power_law` at one height z [m] (compiled scalar twin) [m/s]."""
-    if z > 0.0:
-        return speed * (z / reference_height) ** shear_exponent
-    return 0.0
+#: uniform wind table columns (InflowWind's order; angles in rad here)
+COLUMNS = ("Time", "VelH", "AngleH", "VelV", "ShrH", "ShrV", "LinShrV", "VelGust", "AngleV")
+#: layout of `Wind.params(t)`
+N_PARAMS = 12
 
 
 class Wind:
-    """Steady or time-varying uniform wind with power-law shear.
+    """Uniform wind (module doc).
 
-    speed : reference-height speed [m/s] (used when no `time_series`).
+    speed : reference-height speed [m/s] (used when no table or series).
     shear_exponent : power-law exponent alpha [-].
-    reference_height : z_ref [m] above ground.
+    reference_height : RefHt [m] above ground.
     time_series : (times [s], speeds [m/s]) pair of arrays, or an (N, 2) array.
     direction : horizontal direction the wind blows to, from x towards y [rad].
+    table : (N, 8 or 9) uniform-wind table in `COLUMNS` order (angles in rad);
+        replaces speed, shear, time_series and direction.
+    reference_length : RefLength [m] of the linear shears.
     """
 
     def __init__(self, speed: float = 0.0, shear_exponent: float = 0.0,
-                 reference_height: float = 90.0, time_series=None, direction: float = 0.0):
+                 reference_height: float = 90.0, time_series=None, direction: float = 0.0,
+                 table=None, reference_length: float = 1.0):
         if reference_height <= 0:
             raise ModeselError(f"reference height must be > 0, got {reference_height}",
                                field="reference_height")
         if not np.isfinite(shear_exponent):
             raise ModeselError("shear exponent must be finite", field="shear_exponent")
-        self.speed = float(speed)
-        self.shear_exponent = float(shear_exponent)
+        if not reference_length > 0:
+            raise ModeselError(f"reference length must be > 0, got {reference_length}",
+                               field="reference_length")
         self.reference_height = float(reference_height)
-        self.direction = float(direction)
-        self.times = self.speeds = None
-        if time_series is not None:
-            series = np.asarray(time_series, float)
-            if series.ndim == 2 and series.shape[1] == 2 and series.shape[0] != 2:
-                series = series.T
-            if series.ndim != 2 or series.shape[0] != 2 or series.shape[1] < 1:
-                raise ModeselError("time series must be (times, speeds)", field="time_series")
-            times, speeds = series
-            if not (np.all(np.isfinite(times)) and np.all(np.isfinite(speeds))):
-                raise ModeselError("time series has non-finite values", field="time_series")
-            if np.any(np.diff(times) <= 0):
-                raise ModeselError("time series times must be strictly increasing",
-                                   field="time_series")
-            self.times, self.speeds = times, speeds
+        self.reference_length = float(reference_length)
+        if table is None:
+            if time_series is not None:
+                series = np.asarray(time_series, float)
+                if series.ndim == 2 and series.shape[1] == 2 and series.shape[0] != 2:
+                    series = series.T
+                if series.ndim != 2 or series.shape[0] != 2 or series.shape[1] < 1:
+                    raise ModeselError("time series must be (times, speeds)", field="time_series")
+                times, speeds = series
+            else:
+                times, speeds = np.zeros(1), np.array([float(speed)])
+            table = np.zeros((len(times), len(COLUMNS)))
+            table[:, 0], table[:, 1] = times, speeds
+            table[:, 2] = -float(direction)
+            table[:, 5] = float(shear_exponent)
+        table = np.asarray(table, float)
+        if table.ndim != 2 or table.shape[1] not in (8, 9) or len(table) < 1:
+            raise ModeselError("wind table must have 8 or 9 columns", field="time_series")
+        if table.shape[1] == 8:
+            table = np.column_stack([table, np.zeros(len(table))])
+        if not np.all(np.isfinite(table)):
+            raise ModeselError("time series has non-finite values", field="time_series")
+        if np.any(np.diff(table[:, 0]) <= 0):
+            raise ModeselError("time series times must be strictly increasing", field="time_series")
+        self.table = table
+        self.steady = len(table) == 1
+        # the short-form attributes (first row)
+        self.speed = float(table[0, 1])
+        self.shear_exponent = float(table[0, 5])
+        self.direction = float(-table[0, 2])
+        self.times = None if self.steady else table[:, 0]
+        self.speeds = None if self.steady else table[:, 1]
+        self._steady_params = self._params(table[0])
+
+    def _params(self, row) -> np.ndarray:
+        _, vh, ah, vv, sh, sv, lsv, gust, av = row
+        return np.array([vh, np.cos(ah), np.sin(ah), vv, sh, sv, lsv, gust, np.cos(av), np.sin(av),
+                         self.reference_height, self.reference_length])
+
+    def row(self, t: float) -> np.ndarray:
+        """The table row at time t (linear interpolation, ends held)."""
+        tab = self.table
+        if self.steady or t <= tab[0, 0]:
+            return tab[0]
+        if t >= tab[-1, 0]:
+            return tab[-1]
+        return np.array([np.interp(t, tab[:, 0], tab[:, c]) for c in range(tab.shape[1])])
+
+    def params(self, t: float = 0.0) -> np.ndarray:
+        """Parameters of `wind_velocity` at time t [s] (N_PARAMS floats)."""
+        if self.steady:
+            return self._steady_params
+        return self._params(self.row(float(t)))
 
     def reference_speed(self, t=0.0):
-        """U(t) at the reference height [m/s]."""
-        if self.times is None:
+        """VelH(t) [m/s]."""
+        if self.steady:
             return np.full(np.shape(t), self.speed) if np.ndim(t) else self.speed
-        return np.interp(t, self.times, self.speeds)
+        return np.interp(t, self.table[:, 0], self.table[:, 1])
 
     def velocity(self, z, t=0.0):
-        """Horizontal wind speed u(z, t) [m/s] (broadcast over z [m] and t [s])."""
-        return power_law(z, self.reference_speed(t), self.shear_exponent, self.reference_height)
+        """Horizontal wind speed V1 [m/s] at heights z [m] on the vertical
+        through the origin (broadcast over z and t; no upflow)."""
+        z = np.asarray(z, float)
+        t = np.asarray(t, float)
+        rows = np.array([self.row(float(ti)) for ti in np.atleast_1d(t)])
+        if t.ndim == 0:
+            rows = rows[0]
+        vh, sv, lsv, gust = rows[..., 1], rows[..., 5], rows[..., 6], rows[..., 7]
+        zr, lr = self.reference_height, self.reference_length
+        ratio = np.where(z > 0, z, 1.0) / zr
+        v1 = vh * (ratio ** sv + lsv * (z - zr) / lr) + gust
+        return np.where(z > 0, v1, 0.0)
 
-    def vector(self, z, t=0.0):
-        """Wind velocity vectors (..., 3) [m/s] in the ElastoDyn axes."""
-        u = np.asarray(self.velocity(z, t))
-        return np.stack([u * np.cos(self.direction), u * np.sin(self.direction),
-                         np.zeros_like(u)], axis=-1)
+    def vector(self, z, t=0.0, x=0.0, y=0.0):
+        """Wind velocity vectors (..., 3) [m/s] at points (x, y, z) and time t
+        (numpy; its compiled scalar twin is `wind_velocity`, held equal by
+        tests/test_twins.py)."""
+        z = np.asarray(z, float)
+        x, y = np.broadcast_to(x, z.shape).astype(float), np.broadcast_to(y, z.shape).astype(float)
+        vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = self.params(float(t))
+        above = z > 0.0
+        ratio = np.where(above, z, zr) / zr
+        v1 = vh * (ratio ** shr_v + (shr_h * (y * ch + x * sh) + lin_v * (z - zr)) / lr) + gust
+        v1r = cv * v1 - sv * vv
+        out = np.stack([v1r * ch, -v1r * sh, sv * v1 + cv * vv], axis=-1)
+        return np.where(above[..., None], out, 0.0)
+
+
+@njit(cache=True)
+def wind_velocity(p, x, y, z):
+    """(u, v, w) [m/s] at (x, y, z) for parameters p = Wind.params(t) (module doc)."""
+    if z <= 0.0:
+        return 0.0, 0.0, 0.0
+    vh, ch, sh_, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = (p[0], p[1], p[2], p[3], p[4], p[5],
+                                                                  p[6], p[7], p[8], p[9], p[10], p[11])
+    v1 = vh * ((z / zr) ** shr_v + (shr_h * (y * ch + x * sh_) + lin_v * (z - zr)) / lr) + gust
+    v1r = cv * v1 - sv * vv
+    w = sv * v1 + cv * vv
+    return v1r * ch, -v1r * sh_, w

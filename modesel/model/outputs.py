@@ -3,21 +3,26 @@
 Channels (units as OpenFAST writes them):
 
 - always: Time [s]; Q_<dof> [m or rad] and QD_<dof> for every free
-  coordinate; Azimuth [deg, 0-360) of blade 1; RotSpeed [rpm]; GenSpeed
-  [rpm]; TTDspFA, TTDspSS [m] tower-top displacement (SS positive along +y);
-  TTDspTwst [deg]; OoPDefl<b>, IPDefl<b> [m] blade-tip out-of-plane /
-  in-plane deflection along the coned frame's x/y axes (= TipDxc<b>,
-  TipDyc<b>) and TipDxb<b>, TipDyb<b> along the pitched blade frame's
-  (blades with DOFs; the tip displacement of every blade DOF, twisted
-  shapes included, as ElastoDyn); PtfmSurge [m]; PtfmPitch [deg];
+  coordinate (ElastoDyn's DOF channels: Q_TFA1, Q_TSS1, Q_B1F1, Q_B1E1,
+  Q_DrTr ...; Q_GeAz in ElastoDyn's convention, the rotor azimuth minus
+  90 deg in [0, 2 pi)); Azimuth [deg, 0-360) of blade 1; RotSpeed [rpm];
+  GenSpeed [rpm]; TTDspFA, TTDspSS [m] tower-top displacement (SS = -Q_TSS,
+  positive along +y); TTDspTwst [deg]; TipDxc<b> = OoPDefl<b>, TipDyc<b> =
+  IPDefl<b>, TipDzc<b> [m] blade-tip deflection in the coned frame and
+  TipDxb<b>, TipDyb<b> [m] in the pitched blade frame (`tip_deflections`:
+  twisted shapes, as ElastoDyn); BldPitch<b> [deg]; PtfmSurge [m]; PtfmPitch [deg];
   NacYaw [deg] (when those DOFs exist).
-- from effects (only when switched on): RotThrust [kN], RotTorq [kN m]
-  (aero: aerodynamic rotor thrust along the shaft and torque about it, from
-  the blade node forces); GenTq [kN m], GenPwr [kW] (generator torque law,
-  power = torque * HSS speed * efficiency).
+- with the ElastoDyn drivetrain spring (DrTr free): RotTorq = LSShftTq
+  [kN m], RotPwr [kW], HSShftTq [kN m] (`shaft_torque`).
+- from effects (only when switched on): RtAeroFxh [N], RtAeroMxh [N m],
+  RtAeroPwr [W], RtAeroCp [-] (aero: AeroDyn's rotor loads, model/effects/aero.py);
+  GenTq [kN m], GenPwr [kW] (generator).
 - reaction loads (when the model has reaction coordinates, model/template.py):
-  TwrBsMyt [kN m] tower-base fore-aft (pitching) moment and RootMyc<b>
-  [kN m] blade-root out-of-plane moment about the coned y_c axis.
+  TwrBsMxt, TwrBsMyt [kN m] tower-base side-side (roll) and fore-aft
+  (pitching) moments, RootMxc<b>, RootMyc<b> [kN m] blade-root moments
+  about the coned x_c, y_c axes, RotThrust [kN] the force along the shaft
+  the rotor (hub and blades: aero, weight and inertia) exerts on it
+  (ElastoDyn's LSShftFxa).
 
 Reaction loads: each is the generalised force of a rotation coordinate that
 is fixed at 0 (about the ground y axis at the tower base; about the blade's
@@ -39,17 +44,19 @@ import numpy as np
 import pandas as pd
 
 from modesel.model.effects.base import Effect
-from modesel.vocabulary import dof_unit, parse_dof
+from modesel.vocabulary import dof_unit
 
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
 #: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
 CHANNEL_UNITS = {
     "Time": "s", "Azimuth": "deg", "RotSpeed": "rpm", "GenSpeed": "rpm",
     "TTDspFA": "m", "TTDspSS": "m", "TTDspTwst": "deg", "OoPDefl<b>": "m", "IPDefl<b>": "m",
-    "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
-    "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg",
-    "RotThrust": "kN", "RotTorq": "kN-m", "GenTq": "kN-m", "GenPwr": "kW",
-    "TwrBsMyt": "kN-m", "RootMyc<b>": "kN-m",
+    "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDzc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
+    "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg", "BldPitch<b>": "deg",
+    "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "GenTq": "kN-m",
+    "GenPwr": "kW", "RotPwr": "kW",
+    "TwrBsMyt": "kN-m", "TwrBsMxt": "kN-m", "RootMyc<b>": "kN-m", "RootMxc<b>": "kN-m",
+    "RtAeroFxh": "N", "RtAeroMxh": "N-m", "RtAeroPwr": "W", "RtAeroCp": "-",
 }
 
 
@@ -76,6 +83,8 @@ def channels(built, integ) -> pd.DataFrame:
     data = {"Time": t}
     for i, n in enumerate(names):
         data[f"Q_{n}"] = integ.q[:, i]
+    if "GeAz" in idx:     # ElastoDyn's generator azimuth: 0 with blade 1 at -90 deg, in [0, 2 pi)
+        data["Q_GeAz"] = np.mod(integ.q[:, idx["GeAz"]] - 0.5 * np.pi, 2.0 * np.pi)
     for i, n in enumerate(names):
         data[f"QD_{n}"] = integ.qd[:, i]
 
@@ -101,28 +110,63 @@ def channels(built, integ) -> pd.DataFrame:
     data["TTDspFA"] = sum((coord(d)[0] for d in fa), np.zeros_like(t))
     data["TTDspSS"] = -sum((coord(d)[0] for d in ss), np.zeros_like(t))
     data["TTDspTwst"] = np.rad2deg(sum((coord(d)[0] for d in tw), np.zeros_like(t)))
-    cp, sp = np.cos(model.pitch), np.sin(model.pitch)
+    data.update(tip_deflections(model, coord, t))
     for b in range(1, model.turbine.num_blades + 1):
-        dofs = [d for fld in ("blade_flap", "blade_edge") for ds in model.field_dofs.get(fld, [])
-                if ds and parse_dof(ds[0]).blade == b for d in ds]
-        if dofs:
-            # tip deflection (ElastoDyn's rS0S at the tip: twisted shapes in the
-            # pitched blade frame j) projected on the coned frame i:
-            # OoPDefl = TipDxc, IPDefl = TipDyc; TipDxb, TipDyb along j1, j2
-            tip_b = sum((coord(d)[0][:, None] * model.blade_tip_displacement(d)[None, :] for d in dofs),
-                        np.zeros((len(t), 3)))
-            data[f"OoPDefl{b}"] = tip_b[:, 0] * cp + tip_b[:, 1] * sp
-            data[f"IPDefl{b}"] = -tip_b[:, 0] * sp + tip_b[:, 1] * cp
-            data[f"TipDxc{b}"], data[f"TipDyc{b}"] = data[f"OoPDefl{b}"], data[f"IPDefl{b}"]
-            data[f"TipDxb{b}"], data[f"TipDyb{b}"] = tip_b[:, 0], tip_b[:, 1]
+        data[f"BldPitch{b}"] = np.full_like(t, np.rad2deg(model.pitch))
     if "PtfmSurge" in idx or "PtfmSurge" in model.system.fixed:
         data["PtfmSurge"] = coord("PtfmSurge")[0]
     if "PtfmPitch" in idx or "PtfmPitch" in model.system.fixed:
         data["PtfmPitch"] = np.rad2deg(coord("PtfmPitch")[0])
     if "Yaw" in idx or "Yaw" in model.system.fixed:
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
+    data.update(shaft_torque(built, coord, data["RotSpeed"]))
     data.update(load_channels(built, integ))
     return pd.DataFrame(data)
+
+
+def tip_deflections(model, coord, t) -> dict:
+    """ElastoDyn's blade-tip deflections [m] (ElastoDyn.f90, CalcOutput):
+    the vector from the undeflected tip (root + blade length along the
+    coned blade axis) to the deflected tip, in the coned frame i of each
+    blade: TipDxc<b> (= OoPDefl<b>, out of plane, downwind), TipDyc<b>
+    (= IPDefl<b>, in plane), TipDzc<b> (along the blade, the shortening).
+    The tip displacement is the sum over the blade's coordinates of their
+    tip displacement vectors (pitched blade frame) plus the axial
+    shortening -1/2 q^T G q, turned by the pitch into the coned frame."""
+    from modesel.multibody.rotations import elementary_rotation
+    out = {}
+    turn = elementary_rotation(2, -model.pitch)        # pitched blade frame -> coned frame
+    for b in range(1, model.turbine.num_blades + 1):
+        tip = model.tips.get(f"blade{b}")
+        if not tip or not tip["displacement"]:
+            continue
+        disp = np.zeros((len(t), 3))
+        for d, vec in tip["displacement"].items():
+            disp += np.outer(coord(d)[0], vec)
+        if tip.get("shortening") is not None:
+            dofs, G = tip["shortening"]
+            q = np.column_stack([coord(d)[0] for d in dofs])
+            disp[:, 2] -= 0.5 * np.einsum("ti,ij,tj->t", q, np.asarray(G), q)
+        coned = disp @ turn.T
+        out[f"TipDxb{b}"], out[f"TipDyb{b}"] = disp[:, 0], disp[:, 1]
+        out[f"OoPDefl{b}"], out[f"IPDefl{b}"] = coned[:, 0], coned[:, 1]
+        out[f"TipDxc{b}"], out[f"TipDyc{b}"], out[f"TipDzc{b}"] = coned[:, 0], coned[:, 1], coned[:, 2]
+    return out
+
+
+def shaft_torque(built, coord, rot_speed_rpm) -> dict:
+    """ElastoDyn's low-speed shaft torque RotTorq = LSShftTq [kN m] (LSShftMxa:
+    the moment about the shaft the rotor exerts on it, inertia included)
+    where the ElastoDyn drivetrain spring carries it: with DrTr free, the
+    rotor's equation makes it the spring-damper torque k DrTr + c DrTr'.
+    RotPwr [kW] = RotTorq * rotor speed; HSShftTq [kN m] = RotTorq / GBRatio."""
+    dt = built.effect("drivetrain")
+    if dt is None or dt.options["model"] != "elastodyn":
+        return {}
+    q, qd = coord("DrTr")
+    torque = (dt.k_lss * q + dt.c_lss * qd) / 1e3
+    return {"RotTorq": torque, "LSShftTq": torque, "RotPwr": torque * rot_speed_rpm * np.pi / 30.0,
+            "HSShftTq": torque / built.model.turbine.gearbox_ratio}
 
 
 def load_channels(built, integ) -> dict:

@@ -46,11 +46,13 @@ Damping ratios: the deck's; tower torsion (no ElastoDyn input) takes the
 first fore-aft ratio.
 
 Reaction coordinates (`reactions=True`): the tower base and each blade root
-get a rotation coordinate that is always fixed at 0 (TwrBsRyt about the
-ground y axis at the tower base; RootRyc<b> about the coned-blade y_c axis
-at blade b's root). Fixed, they change nothing in the motion and cost
-nothing in the free equations; their rows of the full equations give the
-reaction moments (TwrBsMyt, RootMyc<b>, see outputs.py).
+get rotation coordinates that are always fixed at 0 (TwrBsRxt, TwrBsRyt
+about the ground x and y axes at the tower base; RootRxc<b>, RootRyc<b>
+about the coned-blade x_c, y_c axes at blade b's root), and the hub a
+translation along the shaft (LSShftTxa). Fixed, they change nothing in the
+motion and cost nothing in the free equations; their rows of the full
+equations give the reaction loads (TwrBsMxt, TwrBsMyt, RootMxc<b>,
+RootMyc<b>, RotThrust; see outputs.py).
 """
 from __future__ import annotations
 
@@ -67,7 +69,8 @@ from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_fle
                                          twist_correction)
 from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
 from modesel.multibody.system import System
-from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, TOWER_BASE_REACTION, TOWER_FIELDS,
+from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION,
+                                TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, TOWER_FIELDS,
                                 field_dofs, is_blade_field, root_reaction)
 
 DRIVETRAINS = ("elastodyn", "two_spring")
@@ -295,7 +298,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     reaction_names = {}
     tower_rot = []
     if reactions:
-        tower_rot = [Rotation(1, {TOWER_BASE_REACTION: 1.0})]
+        tower_rot = [Rotation(0, {TOWER_BASE_REACTION_X: 1.0}), Rotation(1, {TOWER_BASE_REACTION: 1.0})]
+        reaction_names["TwrBsMxt"] = TOWER_BASE_REACTION_X
         reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
     tower_nodes = _nodes_for(modeset, TOWER_FIELDS, min_nodes)
     tower_beam = _quadrature_beam(t, t.tower, modeset, TOWER_FIELDS, 0.0)
@@ -338,7 +342,10 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     tilt = elementary_rotation(1, -t.shaft_tilt)
     apex = np.array([0.0, 0.0, t.twr2shft]) + t.overhang * tilt[:, 0]
     rotor_angle = {"GeAz": 1.0, "DrTr": 1.0}
-    hj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, rotor_angle)])
+    hj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, rotor_angle)],
+               translation={SHAFT_THRUST_REACTION: tilt[:, 0].copy()} if reactions else {})
+    if reactions:
+        reaction_names["RotThrust"] = SHAFT_THRUST_REACTION
     bodies.append(RigidBody("hub", hj, t.hub_mass, np.array([t.hub_cm, 0.0, 0.0]),
                             np.diag([t.hub_inertia, 0.0, 0.0])))
     gj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, {"GeAz": t.gearbox_ratio})])
@@ -396,8 +403,10 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             coned = elementary_rotation(0, psi) @ elementary_rotation(1, t.precone[b - 1])
             offset = coned @ np.array([0.0, 0.0, root])
             if reactions:
-                bj = Joint("hub", offset, coned, rotations=[Rotation(1, {root_reaction(b): 1.0}),
+                bj = Joint("hub", offset, coned, rotations=[Rotation(0, {root_reaction(b, "x"): 1.0}),
+                                                            Rotation(1, {root_reaction(b): 1.0}),
                                                             Rotation(2, {}, -pitch)])
+                reaction_names[f"RootMxc{b}"] = root_reaction(b, "x")
                 reaction_names[f"RootMyc{b}"] = root_reaction(b)
             else:
                 bj = Joint("hub", offset, coned @ elementary_rotation(2, -pitch))

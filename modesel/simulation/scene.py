@@ -1,8 +1,9 @@
 """`Scene`: what to simulate — which DOFs are free, fixed or prescribed, which
 effects act, initial conditions, time span, and the default mode set.
 
-A scene is a TOML file or an OpenFAST ElastoDyn main file (.dat, or an .fst
-naming one). TOML format (units as in OpenFAST input files: m, deg, rpm)::
+A scene is a TOML file, an OpenFAST ElastoDyn main file (.dat), or an
+OpenFAST case (.fst: ElastoDyn with InflowWind, AeroDyn and ServoDyn as
+OpenFAST runs them, `fst.scene_from_fst`). TOML format (units as in OpenFAST input files: m, deg, rpm)::
 
     name = "land_3dof"
     turbine = "nrel5mw"              # built-in name or ElastoDyn deck path (relative to this file)
@@ -86,6 +87,7 @@ class Scene:
     effects: dict = field(default_factory=dict)
     solver: dict = field(default_factory=dict)
     path: str | None = None
+    notes: tuple = ()
 
     @property
     def fields(self) -> tuple:
@@ -140,6 +142,9 @@ def load_scene(path) -> Scene:
     if not path.is_file():
         raise ModeselError("not a file (give a TOML scene, an ElastoDyn .dat or an .fst)", file=str(path))
     if path.suffix.lower() in (".dat", ".fst"):
+        from modesel.simulation.fst import is_fst, scene_from_fst
+        if is_fst(path):
+            return scene_from_fst(path)
         return scene_from_elastodyn(path)
     try:
         data = tomllib.loads(path.read_text())

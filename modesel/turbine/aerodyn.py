@@ -237,3 +237,79 @@ def read_aerodyn(path) -> AeroDynDeck:
     if deck.air_density <= 0:
         raise ModeselError("air density must be > 0", file=path, field="AirDens")
     return deck
+
+
+def aerodyn_case_options(path) -> dict:
+    """The AeroDyn main file of an OpenFAST case mapped to modesel's BEM
+    (`BemSolver` via the `aero` effect) and tower drag (`tower_drag`), in
+    either layout: AeroDyn 15 of OpenFAST 3 (WakeMod, AFAeroMod, SkewMod)
+    or OpenFAST 4/5 (Wake_Mod, BEM_Mod, Skew_Mod, SkewRedistr_Mod, UA_Mod,
+    DBEMT_Mod, ...). Returns {"skew": bool, "tower_drag": bool, "air_density_default":
+    bool, "notes": [...]}. Every switched-on option modesel does not model
+    is a ModeselError naming the file and the input:
+
+    - wake/induction other than quasi-steady BEMT (Wake_Mod/WakeMod != 1,
+      dynamic BEMT DBEMT_Mod > 0 with Wake_Mod 1, OLAF), BEM_Mod 2 (polar),
+      skew correction other than none / Pitt-Peters (Skew_Mod -1, SkewMod 3,
+      SkewMomCorr), sector averaging (SectAvg);
+    - unsteady airfoil aerodynamics (UA_Mod > 0 / AFAeroMod 2), AoA34
+      (angle of attack at 3/4 chord);
+    - tower potential flow (TwrPotent) or shadow (TwrShadow), cavitation,
+      buoyancy, nacelle drag, tail fin, aeroacoustics.
+
+    Mapped: Skew_Mod 1 with SkewRedistr_Mod 1 (SkewMod 2) -> Pitt/Peters
+    correction; Skew_Mod 0, Skew_Mod 1 with SkewRedistr_Mod 0 (SkewMod 1)
+    -> none. TwrAero -> modesel's tower drag, the same quasi-steady load as
+    AeroDyn's ADTwr_CalcOutput (1/2 rho Cd d |V_n| V_n with V_n the
+    relative wind normal to the tower). TipLoss, HubLoss, TanInd, AIDrag,
+    TIDrag, SkewRedistrFactor and the polars are read by `read_aerodyn`.
+    UseBlCm: the sectional pitching moment is not applied (modesel's
+    blades have no torsion; recorded in the notes).
+    """
+    from modesel.turbine.openfast_inputs import InputFile
+    f = InputFile(path, "AeroDyn")
+    notes = []
+    new = "Wake_Mod" in f
+    wake = f.integer("Wake_Mod" if new else "WakeMod")
+    if wake != 1:
+        raise f.unsupported("Wake_Mod" if new else "WakeMod", "only 1 = quasi-steady BEMT is modelled")
+    if new:
+        if "BEM_Mod" in f and f.integer("BEM_Mod") != 1:
+            raise f.unsupported("BEM_Mod", "only 1 = legacy BEM is modelled")
+        if "DBEMT_Mod" in f and f.integer("DBEMT_Mod") != 0:
+            raise f.unsupported("DBEMT_Mod", "dynamic inflow")
+        if "UA_Mod" in f and f.integer("UA_Mod") != 0:
+            raise f.unsupported("UA_Mod", "unsteady airfoil aerodynamics")
+        skew_mod = f.integer("Skew_Mod")
+        if skew_mod not in (0, 1):
+            raise f.unsupported("Skew_Mod", "only 0 and 1 are modelled")
+        if skew_mod == 1 and "SkewMomCorr" in f and f.flag("SkewMomCorr"):
+            raise f.unsupported("SkewMomCorr", "skew momentum correction")
+        redistr = f.integer("SkewRedistr_Mod", default=1) if "SkewRedistr_Mod" in f else 1
+        if redistr not in (0, 1):
+            raise f.unsupported("SkewRedistr_Mod", "only 0 and 1 = Pitt/Peters are modelled")
+        skew = skew_mod == 1 and redistr == 1
+        if "SectAvg" in f and f.flag("SectAvg"):
+            raise f.unsupported("SectAvg", "sector averaging")
+        if "AoA34" in f and f.flag("AoA34", default=True):
+            raise f.unsupported("AoA34", "angle of attack sampled at the 3/4 chord")
+    else:
+        if f.integer("AFAeroMod") != 1:
+            raise f.unsupported("AFAeroMod", "unsteady airfoil aerodynamics")
+        skew_mod = f.integer("SkewMod")
+        if skew_mod not in (1, 2):
+            raise f.unsupported("SkewMod", "only 1 = uncoupled and 2 = Pitt/Peters are modelled")
+        skew = skew_mod == 2
+    for label, what in (("TwrPotent", "tower potential flow"), ("TwrShadow", "tower shadow")):
+        if f.integer(label) != 0:
+            raise f.unsupported(label, what)
+    for label, what in (("CavitCheck", "cavitation check"), ("Buoyancy", "buoyancy"),
+                        ("NacelleDrag", "nacelle drag"), ("TFinAero", "tail-fin aerodynamics"),
+                        ("CompAA", "aeroacoustics")):
+        if label in f and f.flag(label):
+            raise f.unsupported(label, what)
+    if "UseBlCm" in f and f.flag("UseBlCm"):
+        notes.append(f"{f.path.name}: UseBlCm = True, but modesel applies no sectional pitching moment "
+                     f"(its blades have no torsion).")
+    return {"skew": skew, "tower_drag": f.flag("TwrAero"),
+            "air_density_default": f.string("AirDens").lower() == "default", "notes": notes}

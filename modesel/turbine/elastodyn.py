@@ -452,7 +452,7 @@ class _Deck:
 
     def _check_value(self, label: str):
         text = self.value(label)
-        first = text.split()[0] if text else ""
+        first = text.replace(",", " ").split()[0] if text else ""
         if label in ("TwrGagNd", "BldGagNd"):
             return
         if not first:

@@ -44,9 +44,14 @@ Needs [effects.wind]. At every right-hand side:
    virtual work as F_a at r_a on the piecewise-linear blade line
    (`_lumped_transfer`).
 
-Channels: RotThrust [kN] = sum of node forces along x_s, RotTorq [kN m] =
-sum of their moments about x_s through the apex (the loads the structure
-receives).
+Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
+of node forces along x_s, RtAeroMxh [N m] = sum of their moments about x_s
+through the apex (the loads the structure receives), RtAeroPwr [W],
+RtAeroCp [-]. (ElastoDyn's RotThrust and RotTorq are the shaft loads,
+inertia and weight included: outputs.py.)
+
+Options beyond the deck: `air_density` replaces the deck's AirDens (an
+OpenFAST case passes the .fst AirDens where the deck says "default").
 """
 from __future__ import annotations
 
@@ -56,9 +61,9 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from modesel.aero.wind import power_law_at
 from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
+from modesel.aero.wind import wind_velocity
 from modesel.multibody.kinematics import PointSet
 
 
@@ -97,6 +102,7 @@ class BladeAerodynamics(Effect):
     OPTIONS = {
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
+        "air_density": Option("number", None, "air density [kg/m^3] (default: the deck's)", positive=True),
     }
 
     def setup(self, built):
@@ -111,7 +117,9 @@ class BladeAerodynamics(Effect):
             raise self.error(f"the AeroDyn blade ({span[-1]:g} m) and the structural blade "
                              f"({t.blade.length:g} m) differ in length", "aerodyn")
         solver = BemSolver.from_blade(deck.blade, span, num_blades=t.num_blades, hub_radius=t.hub_radius,
-                                           precone=float(t.precone[0]), air_density=deck.air_density,
+                                           precone=float(t.precone[0]),
+                                      air_density=(deck.air_density if self.options["air_density"] is None
+                                                   else self.options["air_density"]),
                                            options=BemOptions.from_deck(deck, **over))
         B, M = t.num_blades, len(span)
         self.bem = StationBem(solver, B)
@@ -135,31 +143,35 @@ class BladeAerodynamics(Effect):
         self.pitch = model.pitch
         self.pos = np.empty((B, M, 3))
         self.vel = np.empty((B, M, 3))
+        self.vrel = np.empty(3)
         self.vn, self.vt, self.skew, self.psi = (np.empty((B, M)) for _ in range(4))
         self.en = np.empty((B, 3))
         self.et = np.empty((B, 3))
         self.forces = np.empty((B, len(nodes_span), 3))
-        w = self.wind
-        self.shear, self.z_ref = w.shear_exponent, w.reference_height
-        self.steady_speed = w.speed if w.times is None else None
-        self.cdir, self.sdir = np.cos(w.direction), np.sin(w.direction)
+        self.rmax = float(self.r.max())
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         frames = built.frames(q_all, qd_all)
         for b, st in enumerate(self.stations):
             st.kinematics(frames, q_all, qd_all, self.pos[b], self.vel[b])
         R, vec = frames
-        U = self.steady_speed if self.steady_speed is not None else float(self.wind.reference_speed(t))
-        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, U, self.shear, self.z_ref, self.cdir,
-               self.sdir, self.vn, self.vt, self.skew, self.psi, self.en, self.et)
+        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.wind.params(t),
+               self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.vrel)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi)
         distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
-        self.last = {"q": q_all, "qd": qd_all}
+        self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
 
     def channels(self, built):
+        """AeroDyn's rotor channels (AeroDyn_IO.f90): RtAeroFxh [N] and
+        RtAeroMxh [N m], the blade loads' force along and moment about the
+        hub x axis (through the apex); RtAeroPwr [W] = RtAeroMxh * rotor
+        speed; RtAeroCp = RtAeroPwr / (1/2 rho RtArea V^3), V the
+        disk-averaged relative wind along the hub x axis (`V_dot_x`: wind
+        minus blade velocity, averaged over the stations), RtArea = pi rmax^2
+        with rmax the largest station radius."""
         if not self.last:
             return {}
         frames = built.frames(self.last["q"], self.last["qd"])
@@ -170,7 +182,12 @@ class BladeAerodynamics(Effect):
             f, m = rotor_loads(self.forces[b], pos, R[self.hub], vec[self.hub, 0])
             thrust += f
             torque += m
-        return {"RotThrust": thrust / 1e3, "RotTorq": torque / 1e3}
+        omega = float(vec[self.hub, 2] @ R[self.hub][:, 0])
+        power = torque * omega
+        v = self.last["v_dot_x"]
+        area = np.pi * self.rmax**2
+        cp = power / (0.5 * self.bem.solver.air_density * area * v**3) if abs(v) >= 0.04 else 0.0
+        return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp}
 
 
 class StationBem:
@@ -250,17 +267,21 @@ def _linear_weights(stations, at):
 
 
 @njit(cache=True)
-def inflow(R, vec, hub, blades, pos, vel, U, shear, z_ref, cdir, sdir, vn, vt, skew, psi, en, et):
+def inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel):
     """Element inflow (module doc, steps 2-3) for all blades and stations;
-    (chi_0, psi) is the compiled twin of `aero.bem.skew_angles`."""
+    wp = `Wind.params(t)`. vrel receives the disk-averaged relative wind
+    (wind minus station velocity, averaged over all stations)."""
     xs = R[hub, :, 0]
     apex, vhub = vec[hub, 0], vec[hub, 1]
-    u = power_law_at(apex[2], U, shear, z_ref)
-    w0, w1, w2 = u * cdir - vhub[0], u * sdir - vhub[1], -vhub[2]
+    u0, u1, u2 = wind_velocity(wp, apex[0], apex[1], apex[2])
+    w0, w1, w2 = u0 - vhub[0], u1 - vhub[1], u2 - vhub[2]
     wa = w0 * xs[0] + w1 * xs[1] + w2 * xs[2]
     p0, p1, p2 = w0 - wa * xs[0], w1 - wa * xs[1], w2 - wa * xs[2]
-    wp = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-    chi0 = np.arctan2(wp, wa)
+    wp_ = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+    chi0 = np.arctan2(wp_, wa)
+    vrel[0] = 0.0
+    vrel[1] = 0.0
+    vrel[2] = 0.0
     for b in range(blades.shape[0]):
         zb = R[blades[b], :, 2]
         c = xs[0] * zb[0] + xs[1] * zb[1] + xs[2] * zb[2]
@@ -274,19 +295,25 @@ def inflow(R, vec, hub, blades, pos, vel, U, shear, z_ref, cdir, sdir, vn, vt, s
         r0, r1, r2 = zb[0] - c * xs[0], zb[1] - c * xs[1], zb[2] - c * xs[2]
         rr = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
         psi_b = 0.0
-        if wp > 0.0:
-            cp = (r0 * p0 + r1 * p1 + r2 * p2) / (rr * wp)
+        if wp_ > 0.0:
+            cp = (r0 * p0 + r1 * p1 + r2 * p2) / (rr * wp_)
             psi_b = np.arccos(min(1.0, max(-1.0, cp)))
         for k in range(pos.shape[1]):
-            z = pos[b, k, 2]
-            uk = power_law_at(z, U, shear, z_ref)
-            v0 = uk * cdir - vel[b, k, 0]
-            v1 = uk * sdir - vel[b, k, 1]
-            v2 = -vel[b, k, 2]
+            uk0, uk1, uk2 = wind_velocity(wp, pos[b, k, 0], pos[b, k, 1], pos[b, k, 2])
+            v0 = uk0 - vel[b, k, 0]
+            v1 = uk1 - vel[b, k, 1]
+            v2 = uk2 - vel[b, k, 2]
+            vrel[0] += v0
+            vrel[1] += v1
+            vrel[2] += v2
             vn[b, k] = v0 * n0 + v1 * n1 + v2 * n2
             vt[b, k] = -(v0 * t0 + v1 * t1 + v2 * t2)
             skew[b, k] = chi0
             psi[b, k] = psi_b
+    n = blades.shape[0] * pos.shape[1]
+    vrel[0] /= n
+    vrel[1] /= n
+    vrel[2] /= n
 
 
 @njit(cache=True)

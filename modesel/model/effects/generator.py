@@ -1,9 +1,31 @@
 """Generator torque on the high-speed shaft.
 
     [effects.generator]
-    mode = "variable_speed"     # | "constant" | "locked"
+    mode = "variable_speed"     # | "constant" | "locked" | "simple_variable_speed" | "induction"
     torque = 43093.55           # N m on the HSS (mode "constant")
     efficiency = 0.944          # electrical efficiency for GenPwr
+
+ServoDyn's laws (`modesel.turbine.servodyn`, which documents them):
+
+    mode = "simple_variable_speed"   # VSContrl = 1
+    rated_speed_rpm = 1161.963       # VS_RtGnSp (HSS)
+    rated_torque = 43093.55          # VS_RtTq [N m]
+    region2_k = 0.0255764            # VS_Rgn2K [N m/rpm^2]
+    slip_percent = 10.0              # VS_SlPc
+
+    mode = "induction"               # VSContrl = 0, GenModel = 1
+    sync_speed_rpm = 1200.0          # SIG_SySp
+    rated_torque = 40000.0           # SIG_RtTq [N m]
+    slip_percent = 1.0               # SIG_SlPc
+    pullout_ratio = 2.0              # SIG_PORt
+
+and, for these two modes, ServoDyn's switching: `on_time` (TimGenOn, s;
+default 0) or `on_speed_rpm` (SpdGenOn, HSS), `off_time` (TimGenOf, s),
+`off_when_no_power` (GenTiStp = False: off for good once the electrical
+power is <= 0). Their power is ServoDyn's (efficiency subtracts when
+generating, adds when motoring). The speed and power switches latch at the
+first right-hand side that meets them (an integrator stage that is later
+rejected can latch them a step early).
 
 The torque T [N m] acts on the generator, whose angle is N_g GeAz, so its
 generalised force on GeAz is -N_g T. "locked": the generator does not turn
@@ -66,10 +88,23 @@ class Generator(Effect):
     name = "generator"
     OPTIONS = {
         "mode": Option("choice", "variable_speed", "torque law",
-                       choices=("variable_speed", "constant", "locked")),
+                       choices=("variable_speed", "constant", "locked", "simple_variable_speed", "induction")),
         "torque": Option("number", None, "constant HSS torque [N m]"),
         "efficiency": Option("number", EFFICIENCY, "generator efficiency [-]", positive=True),
+        "rated_speed_rpm": Option("number", None, "VS_RtGnSp [rpm]", positive=True),
+        "rated_torque": Option("number", None, "VS_RtTq / SIG_RtTq [N m]", positive=True),
+        "region2_k": Option("number", None, "VS_Rgn2K [N m/rpm^2]", nonnegative=True),
+        "slip_percent": Option("number", None, "VS_SlPc / SIG_SlPc [%]", nonnegative=True),
+        "sync_speed_rpm": Option("number", None, "SIG_SySp [rpm]", positive=True),
+        "pullout_ratio": Option("number", None, "SIG_PORt [-]", positive=True),
+        "on_time": Option("number", None, "TimGenOn [s]", nonnegative=True),
+        "on_speed_rpm": Option("number", None, "SpdGenOn [rpm] (HSS)"),
+        "off_time": Option("number", None, "TimGenOf [s]", nonnegative=True),
+        "off_when_no_power": Option("bool", False, "GenTiStp = False"),
     }
+    SERVODYN = {"simple_variable_speed": ("rated_speed_rpm", "rated_torque", "region2_k", "slip_percent"),
+                "induction": ("sync_speed_rpm", "rated_torque", "slip_percent", "pullout_ratio")}
+    SWITCHING = ("on_time", "on_speed_rpm", "off_time", "off_when_no_power")
 
     def __init__(self, scene, options):
         super().__init__(scene, options)
@@ -77,6 +112,31 @@ class Generator(Effect):
         if (mode == "constant") != (options["torque"] is not None):
             raise self.error("give torque exactly when mode = \"constant\"", "torque")
         self.loads = mode != "locked"
+        needed = self.SERVODYN.get(mode, ())
+        for key in set(k for keys in self.SERVODYN.values() for k in keys) | set(self.SWITCHING):
+            given = options[key] is not None and not (key == "off_when_no_power" and options[key] is False)
+            if key in needed and options[key] is None:
+                raise self.error(f"needed with mode = \"{mode}\"", key)
+            if given and key not in needed and not (mode in self.SERVODYN and key in self.SWITCHING):
+                raise self.error(f"not used with mode = \"{mode}\"", key)
+        if options["on_time"] is not None and options["on_speed_rpm"] is not None:
+            raise self.error("give on_time or on_speed_rpm, not both", "on_speed_rpm")
+        from modesel.turbine import servodyn as sd
+        if mode == "simple_variable_speed":
+            w_rated = options["rated_speed_rpm"] * sd.RPM
+            k2 = options["region2_k"] / sd.RPM**2
+            self.law = (sd.simple_vs_torque,
+                        (w_rated, options["rated_torque"], k2)
+                        + sd.simple_vs_constants(w_rated, options["rated_torque"], k2,
+                                                 options["slip_percent"] / 100.0))
+        elif mode == "induction":
+            sync = options["sync_speed_rpm"] * sd.RPM
+            rated = sync * (1.0 + options["slip_percent"] / 100.0)
+            self.law = (sd.induction_torque, (sync, options["rated_torque"] / (rated - sync),
+                                              options["pullout_ratio"] * (rated - sync),
+                                              options["rated_torque"] * options["pullout_ratio"]))
+        self.online_latched = False
+        self.off_latched = False
 
     def configure(self, spec):
         if self.options["mode"] == "locked":
@@ -95,17 +155,45 @@ class Generator(Effect):
             return self.options["torque"]
         return variable_speed_torque(w)
 
+    def servodyn(self, t, w):
+        """(torque [N m], electrical power [W]) of ServoDyn's laws with its
+        on/off switching (module doc)."""
+        from modesel.turbine.servodyn import electrical_power
+        o = self.options
+        if o["off_time"] is not None and t >= o["off_time"]:
+            return 0.0, 0.0
+        if self.off_latched:
+            return 0.0, 0.0
+        if o["on_speed_rpm"] is not None:
+            if not self.online_latched and w * 30.0 / np.pi >= o["on_speed_rpm"]:
+                self.online_latched = True
+            if not self.online_latched:
+                return 0.0, 0.0
+        elif t < (o["on_time"] or 0.0):
+            return 0.0, 0.0
+        law, args = self.law
+        T = law(w, *args)
+        P = electrical_power(T, w, o["efficiency"])
+        if o["off_when_no_power"] and P <= 0.0:
+            self.off_latched = True
+            return 0.0, 0.0
+        return T, P
+
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         w = self.ratio * qd_all[self.i]
-        T = self.torque(w)
+        if self.options["mode"] in self.SERVODYN:
+            T, P = self.servodyn(t, w)
+        else:
+            T = self.torque(w)
+            P = T * w * self.options["efficiency"]
         generalized[self.i] -= self.ratio * T
-        self.last = (T, w)
+        self.last = (T, P)
 
     def channels(self, built):
         if not self.last:
             return {}
-        T, w = self.last
-        return {"GenTq": T / 1e3, "GenPwr": T * w * self.options["efficiency"] / 1e3}
+        T, P = self.last
+        return {"GenTq": T / 1e3, "GenPwr": P / 1e3}
 
 
 EFFECT = Generator

@@ -39,20 +39,16 @@ class TowerDragLoads(Effect):
         if deck.tower is None:
             raise self.error("the AeroDyn deck has no tower table (TwrElev, TwrDiam, TwrCd)", "aerodyn")
         self.drag = deck.tower
-        self.rho = deck.air_density
+        self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
+                    else deck.air_density)
         self.nodes = PointSet.of_body(built.eq, "tower")
         z_rest = self.nodes.kinematics(built.frames(*_rest(built)), *_rest(built))[0][:, 2]
         self.coef = self.drag.coefficient(z_rest, self.rho) * np.asarray(built.model.weights["tower"], float)
-        w = self.wind
-        self.shear, self.z_ref = w.shear_exponent, w.reference_height
-        self.cdir, self.sdir = np.cos(w.direction), np.sin(w.direction)
         self.force = np.empty((len(z_rest), 3))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         pos, vel = self.nodes.kinematics(built.frames(q_all, qd_all), q_all, qd_all)
-        U = self.wind.speed if self.wind.times is None else float(self.wind.reference_speed(t))
-        drag_forces(pos, vel, U, self.shear, self.z_ref, self.cdir, self.sdir,
-                    self.coef, self.force)
+        drag_forces(pos, vel, self.wind.params(t), self.coef, self.force)
         f = node_forces.get("tower")
         node_forces["tower"] = self.force if f is None else f + self.force   # overwritten next call
 

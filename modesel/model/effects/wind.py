@@ -1,5 +1,5 @@
-"""Wind: steady or time-varying uniform wind with power-law shear
-(`aero.Wind`), the input of the `aero` and `tower_drag` effects.
+"""Wind: InflowWind's uniform wind (`aero.Wind`), steady or tabulated in
+time, the input of the `aero` and `tower_drag` effects.
 
     [effects.wind]
     speed = 11.4                 # m/s at the reference height
@@ -7,6 +7,14 @@
     reference_height = 90.0      # m above ground (default: the rotor apex at rest)
     direction_deg = 0.0          # deg, from x (downwind) towards y
     time_series = [[0.0, 8.0], [60.0, 12.0]]   # optional (t [s], U [m/s]), replaces speed
+
+or an InflowWind uniform wind file (WindType 2; its columns give speed,
+direction, vertical speed, shears, gust and upflow in time, interpolated
+linearly; `inflowwind.read_uniform_wind`):
+
+    file = "wind.hh"             # relative to the scene
+    reference_height = 90.0      # RefHt_Uni [m]
+    reference_length = 125.88    # RefLength [m] of the linear shears
 
 The wind itself applies no load.
 """
@@ -22,22 +30,39 @@ class WindField(Effect):
     name = "wind"
     OPTIONS = {
         "speed": Option("number", None, "reference-height speed [m/s]", nonnegative=True),
-        "shear": Option("number", 0.0, "power-law exponent [-]"),
+        "shear": Option("number", None, "power-law exponent [-]"),
         "reference_height": Option("number", None, "reference height [m]", positive=True),
-        "direction_deg": Option("number", 0.0, "direction [deg]", scale=np.pi / 180.0),
+        "direction_deg": Option("number", None, "direction [deg]", scale=np.pi / 180.0),
         "time_series": Option("series", None, "(time [s], speed [m/s]) pairs"),
+        "file": Option("path", None, "InflowWind uniform wind file"),
+        "reference_length": Option("number", None, "RefLength of the linear shears [m]", positive=True),
     }
 
     def __init__(self, scene, options):
         super().__init__(scene, options)
-        if (options["speed"] is None) == (options["time_series"] is None):
-            raise self.error("give either speed or time_series", "speed")
+        o = options
+        if o["file"] is not None:
+            for key in ("speed", "shear", "direction_deg", "time_series"):
+                if o[key] is not None:
+                    raise self.error("given by the wind file's columns: leave it out with file", key)
+            from modesel.turbine.inflowwind import read_uniform_wind
+            self.table = read_uniform_wind(o["file"])
+        else:
+            if (o["speed"] is None) == (o["time_series"] is None):
+                raise self.error("give either speed or time_series (or a file)", "speed")
+            if o["reference_length"] is not None:
+                raise self.error("only used with a wind file", "reference_length")
+            self.table = None
 
     def setup(self, built):
         o = self.options
         z_ref = o["reference_height"] if o["reference_height"] is not None else built.hub_height()
+        if self.table is not None:
+            self.field = Wind(reference_height=z_ref, table=self.table,
+                              reference_length=o["reference_length"] or 1.0)
+            return
         series = None if o["time_series"] is None else o["time_series"].T
-        self.field = Wind(o["speed"] or 0.0, o["shear"], z_ref, series, o["direction_deg"])
+        self.field = Wind(o["speed"] or 0.0, o["shear"] or 0.0, z_ref, series, o["direction_deg"] or 0.0)
 
 
 EFFECT = WindField

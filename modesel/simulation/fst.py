@@ -1,0 +1,136 @@
+"""An OpenFAST case (`.fst` main file) as a modesel `Scene`.
+
+What the case's modules become:
+
+- ElastoDyn (`turbine.elastodyn.read_elastodyn` and `simulation.scene.scene_from_elastodyn`):
+  DOF flags, initial conditions, geometry, masses, modal damping,
+  drivetrain; the deck's polynomial mode shapes are the default mode set.
+- InflowWind (CompInflow = 1, `turbine.inflowwind.read_inflowwind`) -> the `wind`
+  effect; still air (CompInflow = 0) -> zero wind when AeroDyn is on.
+- AeroDyn 15 (CompAero = 2, `turbine.aerodyn.aerodyn_case_options`) -> the `aero`
+  effect (BEM, the deck's blade and polars, Pitt/Peters skew per the deck)
+  and, with TwrAero, `tower_drag`; AirDens "default" takes the .fst AirDens.
+- ServoDyn (CompServo = 1, `turbine.servodyn.read_servodyn`) -> the `generator`
+  effect (ServoDyn's simple variable-speed law or induction generator,
+  GenEff, on/off switching) and the pitch held at PitNeut; without
+  ServoDyn the generator torque is zero and the pitch stays at BlPitch.
+- TMax and DT_Out ("default": DT) are the scene's tmax and dt.
+
+Anything switched on that modesel does not model is a one-line
+`ModeselError` naming the file and the input: BeamDyn or simplified
+ElastoDyn (CompElast 2, 3), external inflow, AeroDisk or external loads,
+SeaState, HydroDyn, SubDyn, moorings, ice, soil, MHK, mirrored or several
+rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, a gearbox
+efficiency below 100 % (GBoxEff), AzimB1Up, and the options listed in the
+InflowWind, AeroDyn and ServoDyn readers.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from modesel.turbine.openfast_inputs import InputFile
+
+
+def is_fst(path) -> bool:
+    """Whether `path` is an OpenFAST main file (it names an EDFile)."""
+    try:
+        lines = Path(path).read_text(errors="replace").splitlines()
+    except OSError:
+        return False
+    return any(line.split()[1:2] == ["EDFile"] for line in lines)
+
+
+def _check_main(f: InputFile):
+    checks = (("CompElast", (1,), "only 1 = ElastoDyn is modelled (BeamDyn and simplified ElastoDyn are not)"),
+              ("CompInflow", (0, 1), "external inflow"), ("CompAero", (0, 2), "only 2 = AeroDyn is modelled"),
+              ("CompServo", (0, 1), "unknown servo module"), ("CompSeaSt", (0,), "SeaState"),
+              ("CompHydro", (0,), "HydroDyn"), ("CompSub", (0,), "substructure"),
+              ("CompMooring", (0,), "mooring"), ("CompIce", (0,), "ice loads"), ("CompSoil", (0,), "SoilDyn"),
+              ("MHK", (0,), "marine turbine"), ("NRotors", (1,), "several rotors"))
+    for label, allowed, what in checks:
+        if label in f and f.integer(label) not in allowed:
+            raise f.unsupported(label, what)
+    if "MirrorRotor" in f and f.flag("MirrorRotor"):
+        raise f.unsupported("MirrorRotor", "mirrored (counter-clockwise) rotor")
+
+
+def _check_elastodyn(ed: InputFile):
+    for label, what in (("PitchDOF", "blade pitch DOF"), ("PtfmSwDOF", "platform sway"),
+                        ("PtfmHvDOF", "platform heave"), ("PtfmRDOF", "platform roll"),
+                        ("PtfmYDOF", "platform yaw")):
+        if label in ed and ed.flag(label):
+            raise ed.unsupported(label, what)
+    for label in ("PtfmSway", "PtfmHeave", "PtfmRoll", "PtfmYaw"):
+        if label in ed and ed.number(label) != 0.0:
+            raise ed.unsupported(label, "a platform offset modesel has no coordinate for")
+    if ed.number("GBoxEff") != 100.0:
+        raise ed.unsupported("GBoxEff", "gearbox losses")
+    if "AzimB1Up" in ed and ed.number("AzimB1Up") != 0.0:
+        raise ed.unsupported("AzimB1Up", "an azimuth offset of the outputs")
+
+
+def scene_from_fst(path):
+    """The `Scene` of an OpenFAST case (module doc)."""
+    from modesel.simulation.scene import scene_from_elastodyn
+    from modesel.model.effects import validate as validate_effects
+    path = Path(path)
+    f = InputFile(path, "OpenFAST main")
+    _check_main(f)
+    tmax = f.number("TMax")
+    if tmax <= 0:
+        raise f.error(f"must be > 0, got {tmax:g}", "TMax")
+    dt_out = f.number("DT_Out", default=f.number("DT"))
+    if dt_out <= 0:
+        raise f.error(f"must be > 0, got {dt_out:g}", "DT_Out")
+    ed = InputFile(f.referenced("EDFile"), "ElastoDyn")
+    _check_elastodyn(ed)
+    scene = scene_from_elastodyn(path)
+    scene.tmax, scene.dt = tmax, dt_out
+    notes = list(scene.notes)
+    effects = dict(scene.effects)
+    pitch_deg = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
+    if f.integer("CompServo") == 1:
+        servo = _servodyn(f, tmax, yaw_dof=bool(scene.turbine.dofs.get("YawDOF")))
+        effects["generator"] = servo["generator"]
+        pitch_deg = np.array(servo["pitch_deg"][:scene.turbine.num_blades])
+        if "GeAz" not in scene.free:
+            del effects["generator"]          # fixed-speed rotor: the torque does not act
+        bl = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
+        if not np.allclose(bl, pitch_deg):
+            notes.append(f"ElastoDyn BlPitch {bl.tolist()} deg differs from ServoDyn PitNeut "
+                         f"{pitch_deg.tolist()} deg: OpenFAST 5 (PCMode = 0) holds the pitch at PitNeut.")
+    if np.ptp(pitch_deg) > 0:
+        raise f.error(f"blade pitch angles differ ({pitch_deg.tolist()} deg): modesel models a collective "
+                      f"pitch only", "ServoFile" if f.integer("CompServo") == 1 else "EDFile")
+    effects["pitch"] = {"collective_deg": float(pitch_deg[0])}
+    scene.initial["BlPitch"] = float(np.deg2rad(pitch_deg[0]))
+    if f.integer("CompAero") == 2:
+        import modesel.aero  # noqa: F401  (modesel.aero and turbine.aerodyn import each other: aero first)
+        from modesel.turbine.aerodyn import aerodyn_case_options
+        ad_path = f.referenced("AeroFile")
+        ad = aerodyn_case_options(ad_path)
+        notes += ad["notes"]
+        aero = {"aerodyn": str(ad_path.resolve()), "skew": ad["skew"]}
+        if ad["air_density_default"] and "AirDens" in f:
+            aero["air_density"] = f.number("AirDens")
+        effects["aero"] = aero
+        effects["tower_drag"] = {"aerodyn": str(ad_path.resolve())} if ad["tower_drag"] else False
+        if f.integer("CompInflow") == 1:
+            from modesel.turbine.inflowwind import read_inflowwind
+            effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)
+        else:
+            effects["wind"] = {"speed": 0.0}
+    validate_effects(effects, str(path), path.parent)
+    scene.effects = effects
+    scene.notes = tuple(notes)
+    return scene
+
+
+def _servodyn(f: InputFile, tmax: float, yaw_dof: bool) -> dict:
+    from modesel.turbine.servodyn import read_servodyn
+    servo_path = f.referenced("ServoFile")
+    if servo_path is None:
+        raise f.error("CompServo = 1 needs a ServoDyn file", "ServoFile")
+    return read_servodyn(servo_path, tmax, yaw_dof=yaw_dof)
