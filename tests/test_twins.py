@@ -87,11 +87,9 @@ def tower_drag(rng):
     pos = np.column_stack([rng.normal(0.0, 0.5, (n, 2)), rng.uniform(-2.0, 95.0, n)])
     vel = rng.normal(0.0, 3.0, (n, 3))
     length = rng.uniform(0.5, 2.0, n)                   # node weights [m]
-    reference = drag.load(pos[:, 2], wind.vector(pos[:, 2]), vel, rho) * length[:, None]
+    reference = drag.load(pos[:, 2], wind.vector(pos[:, 2], 0.0, pos[:, 0], pos[:, 1]), vel, rho) * length[:, None]
     out = np.empty((n, 3))
-    drag_forces(pos, vel, wind.speed, wind.shear_exponent, wind.reference_height,
-                np.cos(wind.direction), np.sin(wind.direction),
-                drag.coefficient(pos[:, 2], rho) * length, out)
+    drag_forces(pos, vel, wind.params(0.0), drag.coefficient(pos[:, 2], rho) * length, out)
     return [("node forces", reference, out)]
 
 
@@ -138,17 +136,16 @@ def blade_inflow(rng):
     wind = Wind(rng.uniform(3.0, 25.0), rng.uniform(0.0, 0.4), rng.uniform(60.0, 120.0),
                 direction=rng.uniform(-0.5, 0.5))
     vn, vt, skew, psi = (np.empty((B, M)) for _ in range(4))
-    en, et = np.empty((B, 3)), np.empty((B, 3))
-    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, wind.speed, wind.shear_exponent,
-           wind.reference_height, np.cos(wind.direction), np.sin(wind.direction),
-           vn, vt, skew, psi, en, et)
+    en, et, vrel = np.empty((B, 3)), np.empty((B, 3)), np.empty(3)
+    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, wind.params(0.0), vn, vt, skew, psi, en, et, vrel)
     xs, zb = R[0, :, 0], R[1:, :, 2]
     e_n = unit(xs - (zb @ xs)[:, None] * zb)
     e_t = np.cross(e_n, zb)
-    v_rel = wind.vector(pos[..., 2]) - vel
+    v_rel = wind.vector(pos[..., 2], 0.0, pos[..., 0], pos[..., 1]) - vel
     radial = unit(zb - (zb @ xs)[:, None] * xs)
-    chi0, psi_ref = skew_angles(wind.vector(vec[0, 0, 2]) - vec[0, 1], xs, radial)
-    return [("V_n", np.einsum("bki,bi->bk", v_rel, e_n), vn),
+    chi0, psi_ref = skew_angles(wind.vector(vec[0, 0, 2], 0.0, vec[0, 0, 0], vec[0, 0, 1]) - vec[0, 1], xs, radial)
+    return [("disk-averaged v_rel", v_rel.reshape(-1, 3).mean(axis=0), vrel),
+            ("V_n", np.einsum("bki,bi->bk", v_rel, e_n), vn),
             ("V_t", -np.einsum("bki,bi->bk", v_rel, e_t), vt),
             ("chi_0", np.broadcast_to(chi0, (B, M)), skew),
             ("psi", np.broadcast_to(psi_ref[:, None], (B, M)), psi)]
