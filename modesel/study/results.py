@@ -41,6 +41,9 @@ from modesel.files import atomic_write_text
 from modesel.modeset import ModeSet
 from modesel.study import report
 from modesel.study.ranking import best_modeset, featured_trials, pareto, rank, trial_table
+from modesel.study.search import Objective, load_scenes, mask_url, open_study, prepare_references
+from modesel.study.search import engine as engines
+from modesel.study.spec import parse_study
 from modesel.study.timeseries import prune_series, read_series, write_series
 
 RUN_INFO = "run.json"
@@ -112,7 +115,6 @@ def write_results(out_dir, optuna_study, study) -> dict:
 def resimulate_series(out_dir, study, missing: dict, engine, notes: list) -> None:
     """Simulate again the sets {trial number: ModeSet} whose series are not
     stored and store them; a problem becomes a note."""
-    from modesel.study.search import Objective, load_scenes, prepare_references
     try:
         scenes = load_scenes(study, engine)
         refs = prepare_references(study, scenes, engine, Path(out_dir) / "reference")
@@ -127,9 +129,6 @@ def refresh(out_dir, *, storage: str | None = None, engine=None, log=None) -> di
     """Rewrite trials.csv, pareto.csv, best_modeset.json, the featured time
     series and report.html of `out_dir` from its storage (or `storage`).
     Returns the summary with the tolerance sentences under 'sentences'."""
-    from modesel.study.search import engine as engines
-    from modesel.study.search import mask_url, open_study
-    from modesel.study.spec import parse_study
     out_dir = Path(out_dir)
     info = read_run_info(out_dir)
     study = parse_study(info["study_toml"], info["study_file"])

@@ -96,6 +96,13 @@ class Objective:
             pass
 
     def __call__(self, trial):
+        try:
+            return self._run(trial)
+        except KeyboardInterrupt:       # while waiting for a claim or simulating
+            trial.set_user_attr("fail_reason", INTERRUPTED)
+            raise
+
+    def _run(self, trial):
         modeset = self.space.suggest(trial)
         earlier = claim(trial, modeset.label())
         if earlier is not None:   # the record stays with the earlier trial
@@ -115,9 +122,6 @@ class Objective:
                 trial.set_user_attr("failed_scene", exc.scene)
             if getattr(exc, "time", None) is not None:
                 trial.set_user_attr("failed_at_s", exc.time)
-            raise
-        except KeyboardInterrupt:
-            trial.set_user_attr("fail_reason", INTERRUPTED)
             raise
         except Exception as exc:  # a bug, not a user problem: record it, then stop the study
             trial.set_user_attr("fail_reason", f"internal error: {type(exc).__name__}: {exc}")
