@@ -179,9 +179,9 @@ def test_fst_gravity_takes_precedence(tmp_path):
 def test_new_format_deck_reads_the_same(tmp_path, nrel):
     """Round trip through openfast_io's own writer (newest layout, no
     normalisation needed): the turbine is unchanged."""
-    values, _ = elastodyn._read(ED, "elastodyn")
-    tower, _ = elastodyn._read(TOWER, "tower")
-    blade, _ = elastodyn._read(BLADE, "blade")
+    values, _ = elastodyn.read_deck(ED, "elastodyn")
+    tower, _ = elastodyn.read_deck(TOWER, "tower")
+    blade, _ = elastodyn.read_deck(BLADE, "blade")
     writer = InputWriter_OpenFAST()
     writer.FAST_runDirectory, writer.FAST_namingOut = str(tmp_path), "new"
     reader_outlist = {"ElastoDyn": {}, "ElastoDyn_Nodes": {}}

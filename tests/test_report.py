@@ -9,14 +9,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import modesel.study.search
+import modesel.study.search.engine
 from modesel.cli import main
 from test_search import FAKE_ENGINE, make_study
 
 
 @pytest.fixture(autouse=True)
 def fake_engine(monkeypatch):
-    monkeypatch.setattr(modesel.study.search, "default_engine", lambda: FAKE_ENGINE)
+    monkeypatch.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +25,7 @@ def finished(tmp_path_factory):
     folder = tmp_path_factory.mktemp("run")
     study = make_study(folder, n_trials=25)
     mp = pytest.MonkeyPatch()
-    mp.setattr(modesel.study.search, "default_engine", lambda: FAKE_ENGINE)
+    mp.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
     try:
         assert main(["run", str(study), "--out", str(folder / "out")]) == 0
     finally:

@@ -11,6 +11,8 @@ harmonics exactly; `test_rich` captures one more harmonic per mode but with a
 from __future__ import annotations
 
 import math
+import threading
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,6 +25,7 @@ from modesel.candidates.base import BENDING_FIELDS, Family, Parameter, register
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import FieldModes, ModeSet
 from modesel.study.search import Engine, Objective, SearchSpace, load_scenes, prepare_references, run_search
+from modesel.study.search.claims import claim
 from modesel.study.spec import parse_study
 
 # ------------------------------------------------------------------ fake families (unit-tip monomials)
@@ -318,6 +321,44 @@ def test_interrupted_trial_is_queued_again(tmp_path):
     assert trials[stuck.number].user_attrs["fail_reason"] == "interrupted"
     assert trials[stuck.number + 1].params == params
     assert trials[stuck.number + 1].state == optuna.trial.TrialState.COMPLETE
+
+
+def test_interrupted_trials_of_one_set_are_queued_once(tmp_path):
+    """Two trials of one set cut short (one simulating it, one waiting for
+    its record) give one queued trial, not two."""
+    study = load(make_study(tmp_path, n_trials=3))
+    out = tmp_path / "out"
+    first = run_search(study, out_dir=out, engine=FAKE_ENGINE, progress=False).optuna_study
+    space = SearchSpace(study.search)
+    params = space.params(ModeSet({"tower_fa": FieldModes("test_exact", 4),
+                                   "blade_flap": FieldModes("test_exact", 4)}))
+    for _ in range(2):                  # left RUNNING, as after a kill -9
+        first.enqueue_trial(params)
+        space.suggest(first.ask())
+    outcome = run_search(study, out_dir=out, n_trials=2, engine=FAKE_ENGINE, progress=False)
+    assert outcome.requeued == 1
+    trials = outcome.optuna_study.trials
+    assert sum(1 for t in trials if t.params == params and t.state == optuna.trial.TrialState.COMPLETE
+               and "duplicate_of" not in t.user_attrs) == 1
+
+
+def test_a_set_claimed_first_by_a_later_trial_is_simulated_once():
+    """Trial numbers are fixed when trials are created, before their sets are
+    known, so a trial created later can claim a set first; the earlier trial
+    proposing the same set then waits for the later one's record instead of
+    simulating the set too."""
+    opt = optuna.create_study(directions=["minimize", "minimize"])
+    early, late = opt.ask(), opt.ask()
+    assert claim(late, "tower_fa=test_exact:2", wait_s=5.0) is None        # first claim: simulates
+    owner = {}
+    waiting = threading.Thread(target=lambda: owner.update(trial=claim(early, "tower_fa=test_exact:2",
+                                                                        wait_s=30.0)))
+    waiting.start()
+    time.sleep(0.3)
+    assert waiting.is_alive()                                              # behind the later trial
+    opt.tell(late, (0.1, 1.0))
+    waiting.join(10.0)
+    assert owner["trial"].number == late.number
 
 
 def test_continuous_parameters_are_searched_within_range(tmp_path):

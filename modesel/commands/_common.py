@@ -1,6 +1,8 @@
 """Helpers shared by the command modules."""
 from __future__ import annotations
 
+import argparse
+import sys
 
 from modesel.files import atomic_write_text  # noqa: F401  (shared by the commands)
 
@@ -18,12 +20,41 @@ def load_modeset(path):
     return modeset
 
 
-def positive_float(text: str) -> float:
-    import argparse
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
-    return value
+def say(msg: str) -> None:
+    """One line on stderr, prefixed 'modesel: '."""
+    print(f"modesel: {msg}", file=sys.stderr)
+
+
+# --------------------------------------------------------------------------- argument types
+
+def number_type(kind: type, lowest, *, strict: bool = False):
+    """An argparse `type`: text -> `kind` (int or float) that is >= `lowest`
+    (> `lowest` with `strict`), else a one-line argparse error."""
+    noun = "an integer" if kind is int else "a number"
+    bound = ("positive" if lowest == 0 else f"> {lowest}") if strict else f">= {lowest}"
+
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
+        if not (value > lowest if strict else value >= lowest):
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
+        return value
+
+    return convert
+
+
+positive_float = number_type(float, 0.0, strict=True)
+positive_int = number_type(int, 1)
+non_negative_int = number_type(int, 0)
+
+
+def add_search_options(p, *, n_trials: str, n_jobs: str, seed: str) -> None:
+    """--n-trials, --timeout, --n-jobs and --seed of the commands that run
+    trials (`modesel run`, `modesel worker`); the help texts say what each
+    means for the command."""
+    p.add_argument("--n-trials", type=positive_int, help=n_trials)
+    p.add_argument("--timeout", type=positive_float, help="stop starting trials after S seconds")
+    p.add_argument("--n-jobs", type=positive_int, help=n_jobs)
+    p.add_argument("--seed", type=non_negative_int, help=seed)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from modesel.commands.run import _say
+from modesel.commands._common import say
 
 
 def register(subparsers):
@@ -22,8 +22,8 @@ def register(subparsers):
 def run(args, engine=None) -> int:
     from pathlib import Path
 
-    from modesel.study.report import refresh
-    summary = refresh(args.dir, storage=args.storage, engine=engine, log=_say)
+    from modesel.study.results import refresh
+    summary = refresh(args.dir, storage=args.storage, engine=engine, log=say)
     for sentence in summary["sentences"]:
         print(sentence)
     print(f"wrote {Path(args.dir) / 'report.html'}")

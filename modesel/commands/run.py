@@ -15,31 +15,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
-from modesel.commands._common import positive_float
+from modesel.commands._common import add_search_options, say
 from modesel.errors import Interrupted, ModeselError
-
-
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text}")
-    return value
-
-
-def non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
-    return value
 
 
 def register(subparsers):
@@ -48,11 +27,9 @@ def register(subparsers):
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("study", help="study file (TOML)")
     p.add_argument("--out", required=True, help="output folder (created; reused to resume)")
-    p.add_argument("--n-trials", type=positive_int, help="trials to run now (default [budget].n_trials)")
-    p.add_argument("--timeout", type=positive_float, help="stop starting trials after S seconds")
-    p.add_argument("--n-jobs", type=positive_int, help="parallel worker processes")
+    add_search_options(p, n_trials="trials to run now (default [budget].n_trials)",
+                       n_jobs="parallel worker processes", seed="sampler seed")
     p.add_argument("--storage", help="SQLAlchemy URL of a shared study storage")
-    p.add_argument("--seed", type=non_negative_int, help="sampler seed")
     p.set_defaults(func=run)
 
 
@@ -67,14 +44,10 @@ def prepare_out_dir(path) -> Path:
     return out
 
 
-def _say(msg: str) -> None:
-    print(f"modesel: {msg}", file=sys.stderr)
-
-
 def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
     """Write the results of the finished trials (ignoring a second Ctrl-C)
     and return the one-line `Interrupted` error to raise."""
-    from modesel.study.report import refresh
+    from modesel.study.results import refresh
     signal_name = "SIGTERM" if type(exc).__name__ == "Terminated" else "SIGINT"
     try:
         summary = refresh(out, engine=engine)
@@ -88,8 +61,7 @@ def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
 
 
 def run(args, engine=None) -> int:
-    from modesel.study.report import refresh
-    from modesel.study.results import write_run_info
+    from modesel.study.results import refresh, write_run_info
     from modesel.study.search import default_storage, mask_url, run_search
     from modesel.study.spec import load_study
 
@@ -102,11 +74,11 @@ def run(args, engine=None) -> int:
     try:
         outcome = run_search(study, out_dir=out, storage=storage, n_trials=args.n_trials,
                              timeout=args.timeout, n_jobs=args.n_jobs, seed=args.seed, engine=engine,
-                             log=_say)
+                             log=say)
     except KeyboardInterrupt as exc:   # keep what was done: results of the finished trials
         raise _interrupted(exc, out, engine) from None
     write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
-    summary = refresh(out, engine=engine, log=_say)
+    summary = refresh(out, engine=engine, log=say)
     total = len(outcome.optuna_study.get_trials(deepcopy=False))
     print(f"{study.name}: {outcome.n_new} new trials ({total} in the study"
           + (f", {outcome.requeued} interrupted re-queued" if outcome.requeued else "")

@@ -14,8 +14,7 @@ import socket
 import zlib
 from pathlib import Path
 
-from modesel.commands._common import positive_float
-from modesel.commands.run import _say, non_negative_int, positive_int
+from modesel.commands._common import add_search_options, say
 
 
 def register(subparsers):
@@ -24,10 +23,8 @@ def register(subparsers):
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("study", help="study file (TOML)")
     p.add_argument("--storage", required=True, help="SQLAlchemy URL, e.g. postgresql://user@host/db")
-    p.add_argument("--n-trials", type=positive_int, help="trials to run (default [budget].n_trials)")
-    p.add_argument("--timeout", type=positive_float, help="stop starting trials after S seconds")
-    p.add_argument("--n-jobs", type=positive_int, help="parallel processes on this machine")
-    p.add_argument("--seed", type=non_negative_int, help="sampler seed (default: the study's)")
+    add_search_options(p, n_trials="trials to run (default [budget].n_trials)",
+                       n_jobs="parallel processes on this machine", seed="sampler seed (default: the study's)")
     p.add_argument("--cache", help="folder for the internal reference cache "
                                    "(default: .modesel/<study name> next to the study file)")
     p.set_defaults(func=run)
@@ -42,7 +39,7 @@ def run(args, engine=None) -> int:
     # salt the seed with host and process, so workers started together differ
     salt = zlib.crc32(f"{socket.gethostname()}:{os.getpid()}".encode())
     outcome = run_search(study, storage=args.storage, n_trials=args.n_trials, timeout=args.timeout,
-                         n_jobs=args.n_jobs, seed=args.seed, engine=engine, cache_dir=cache, log=_say,
+                         n_jobs=args.n_jobs, seed=args.seed, engine=engine, cache_dir=cache, log=say,
                          salt=salt)
     trials = outcome.optuna_study.get_trials(deepcopy=False)
     print(f"{study.name}: {outcome.n_new} trials run by this worker, {len(trials)} in the study "

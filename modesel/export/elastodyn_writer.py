@@ -17,12 +17,12 @@ Fields absent from the mode set keep the deck's polynomials and DOF flags.
 
 Raw deck access. The deck is read with openfast-io after being normalised to
 the layout openfast-io 5.0 reads, by the normaliser of
-`modesel.turbine.elastodyn` (`_Deck`, `_read`: older decks lack
+`modesel.turbine.elastodyn` (`Deck`, `read_deck`: older decks lack
 `PitchDOF`, pitch-bearing inertias and yaw friction, have a `Gravity` line or
 a `PitchAxis` blade column). This module is the one place that needs the
 raw openfast-io dictionaries (to rewrite files); it reuses that normaliser
 rather than parsing decks a second way. The main file is read here (not via
-`_read`) because writing it back needs openfast-io's OutList as well.
+`read_deck`) because writing it back needs openfast-io's OutList as well.
 
 The files are written by openfast-io's `InputWriter_OpenFAST`
 (write_ElastoDyn, write_ElastoDynTower, write_ElastoDynBlade), i.e. in the
@@ -48,7 +48,7 @@ from modesel.errors import ModeselError
 from modesel.export import stations, write_text
 from modesel.export.polyfit import PolynomialFit, fit_mode_polynomial
 from modesel.modeset import FIELDS
-from modesel.turbine.elastodyn import _Deck, _has_label, _read, _referenced
+from modesel.turbine.elastodyn import Deck, has_label, read_deck, referenced_file
 
 # field -> ElastoDyn mode slots: (file branch, coefficient key, DOF flag, modal stiffness tuner)
 ELASTODYN_MODES = {
@@ -90,11 +90,11 @@ def read_raw_deck(path) -> RawDeck:
     if not path.is_file():
         raise ModeselError("turbine deck not found", file=str(path))
     inputs = [path]
-    if _has_label(path, "EDFile"):
-        fst, _ = _read(path, "main")
-        path = _referenced(path, fst["EDFile"], "EDFile")
+    if has_label(path, "EDFile"):
+        fst, _ = read_deck(path, "main")
+        path = referenced_file(path, fst["EDFile"], "EDFile")
         inputs.append(path)
-    deck = _Deck(path, "elastodyn")
+    deck = Deck(path, "elastodyn")
     text = deck.normalised()
     _check_outlists_end(text, path)
     reader = InputReader_OpenFAST()
@@ -115,17 +115,17 @@ def read_raw_deck(path) -> RawDeck:
     if dropped:
         notes.append(f"{path.name}: output channel(s) unknown to openfast-io dropped: {', '.join(dropped)}.")
     if ed.get("Furling") is True:
-        ed["FurlFile"] = str(_referenced(path, os.path.basename(ed["FurlFile"]), "FurlFile").resolve())
+        ed["FurlFile"] = str(referenced_file(path, os.path.basename(ed["FurlFile"]), "FurlFile").resolve())
 
-    tower_path = _referenced(path, ed["TwrFile"], "TwrFile")
-    tower, tower_deck = _read(tower_path, "tower")
+    tower_path = referenced_file(path, ed["TwrFile"], "TwrFile")
+    tower, tower_deck = read_deck(tower_path, "tower")
     notes += tower_deck.notes()
     inputs.append(tower_path)
     blades, blade_of, seen = [], [], {}
     for k in range(1, int(ed["NumBl"]) + 1):
-        blade_path = _referenced(path, ed[f"BldFile{k}"], f"BldFile({k})").resolve()
+        blade_path = referenced_file(path, ed[f"BldFile{k}"], f"BldFile({k})").resolve()
         if blade_path not in seen:
-            blade, blade_deck = _read(blade_path, "blade")
+            blade, blade_deck = read_deck(blade_path, "blade")
             notes += blade_deck.notes()
             seen[blade_path] = len(blades)
             blades.append(blade)

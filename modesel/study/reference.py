@@ -348,7 +348,7 @@ def internal_reference(scene, channels, simulate, *, family: str = "fem", tolera
     ref = Reference(name, "internal", current.time, dict(current.sim), {}, info,
                     None if window is None else tuple(window))
     if cache is not None:
-        from modesel.study.results import atomic_write_text
+        from modesel.files import atomic_write_text
         Path(cache_dir).mkdir(parents=True, exist_ok=True)
         atomic_write_text(cache.with_suffix(".csv"), ref.frame().to_csv(index=False, float_format="%.17g"))
         atomic_write_text(cache.with_suffix(".json"), json.dumps(info, indent=2, sort_keys=True) + "\n")

@@ -1,20 +1,16 @@
 """report.html: one self-contained page answering the study's question.
 
-`refresh(out_dir)` rebuilds everything in an output folder from its storage:
-trials.csv, pareto.csv, best_modeset.json (see `modesel.study.results`) and
-report.html. The page has no external reference at all: figures are inline
-SVG drawn with matplotlib (Agg), namespace and metadata links stripped, and
-the style sheet is inline. Sections: the answer (one sentence per tolerance
-level, e.g. "3.5 % needs tower_fa=clamped:2 (4 DOFs, 0.012 s per simulated
-s); 1 % needs tower_fa=fem:4 (8 DOFs, 0.05 s per simulated s) at 4.2 times
-the cost."), the study summary, accuracy versus cost with the Pareto front,
-convergence history (best error versus trial), the ranked table, time
-series of the featured sets against the reference, the chosen mode shapes
-and the failed trials with their reasons.
-
-Time series of featured trials come from ``timeseries/`` in the output
-folder; a featured trial without stored series (run by a remote worker, or
-pruned) is simulated again when the engine is available.
+`render` turns a study's ranked results (`modesel.study.results`, which
+writes the page) into the HTML text; this module writes no file. The page
+has no external reference at all: figures are inline SVG drawn with
+matplotlib (Agg), namespace and metadata links stripped, and the style sheet
+is inline. Sections: the answer (one sentence per tolerance level, e.g.
+"3.5 % needs tower_fa=clamped:2 (4 DOFs, 0.012 s per simulated s); 1 % needs
+tower_fa=fem:4 (8 DOFs, 0.05 s per simulated s) at 4.2 times the cost."),
+the study summary, accuracy versus cost with the Pareto front, convergence
+history (best error versus trial), the ranked table, time series of the
+featured sets against the reference (from ``timeseries/`` in the output
+folder), the chosen mode shapes and the failed trials with their reasons.
 """
 from __future__ import annotations
 
@@ -23,17 +19,15 @@ import io
 import math
 import re
 from datetime import datetime, timezone
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from modesel.errors import ModeselError
 from modesel.modeset import ModeSet
-from modesel.study.results import (atomic_write_text, choose, most_accurate, prune_series, read_run_info,
-                             read_series, write_results, write_series)
+from modesel.study.ranking import choose, most_accurate
+from modesel.study.timeseries import read_series
 
-KEEP_SERIES_TOP = 10
 TABLE_ROWS = 30
 
 
@@ -323,76 +317,20 @@ def render_html(study, summary: dict, sentences: list, figures: dict, notes: lis
     return "\n".join(parts)
 
 
-# --------------------------------------------------------------------------- refresh
-
-def _resimulate(out_dir, study, missing: dict, engine, notes: list) -> None:
-    """Simulate again featured sets whose series are not stored."""
-    from modesel.study.search import Objective, load_scenes, prepare_references
-    try:
-        scenes = load_scenes(study, engine)
-        refs = prepare_references(study, scenes, engine, Path(out_dir) / "reference")
-        objective = Objective(study, scenes, refs, engine)
-        for number, modeset in missing.items():
-            write_series(out_dir, number, objective.evaluate(modeset)["_series"])
-    except (ModeselError, ImportError) as exc:
-        notes.append(f"time series of trials {sorted(missing)} not drawn: {exc}")
-
-
-def refresh(out_dir, *, storage: str | None = None, engine=None, log=None) -> dict:
-    """Rewrite trials.csv, pareto.csv, best_modeset.json and report.html of
-    `out_dir` from its storage (or `storage`). Returns the summary with the
-    tolerance sentences under 'sentences'."""
-    from modesel.study.search import default_engine, mask_url, open_study
-    from modesel.study.spec import parse_study
-    out_dir = Path(out_dir)
-    info = read_run_info(out_dir)
-    study = parse_study(info["study_toml"], info["study_file"])
-    storage = storage or info["storage"]
-    opt = open_study(study, storage, create=False)
-    summary = write_results(out_dir, opt, study)
-    ranked, table, featured = summary["ranked"], summary["table"], summary["featured"]
-    trials = {t.number: t for t in opt.get_trials(deepcopy=False)}
-    notes = []
-
-    missing = {n: ModeSet.from_dict(trials[n].user_attrs["modeset_json"])
-               for n in set(featured.values()) if read_series(out_dir, n) is None}
-    try:
-        engine_ok = engine or default_engine()
-    except ImportError as exc:
-        engine_ok = None
-        notes.append(f"simulator not available: {exc}")
-    if missing and engine_ok is not None:
-        if log:
-            log(f"simulating again trials {sorted(missing)} for the report time series")
-        _resimulate(out_dir, study, missing, engine_ok, notes)
-    keep = set(featured.values()) | set(ranked["trial"].head(KEEP_SERIES_TOP).astype(int)) \
-        if not ranked.empty else set()
-    prune_series(out_dir, keep)
-
-    summary["reference_info"] = info.get("reference_info", {})
-
+def render(out_dir, study, summary: dict, sentences: list, chosen: ModeSet | None, scene, notes: list,
+           info: dict) -> str:
+    """The page for the results `summary` (`modesel.study.results.write_results`)
+    of `study`, whose time series are stored in `out_dir`; `chosen`: the
+    selected set, its shapes drawn with the turbine of `scene` (or None);
+    `notes` (extended with what could not be drawn) are listed at the end."""
+    table, featured = summary["table"], summary["featured"]
     figures = {}
     if not table.empty and (table["status"] == "COMPLETE").any():
         figures["pareto"] = pareto_figure(table, summary["pareto"], study, featured)
         figures["history"] = history_figure(table, study)
     figures["series"] = series_figures(out_dir, study, featured, table)
-    chosen = choose(ranked, study.compare.tolerance) if not ranked.empty else None
-    if chosen is None and not ranked.empty:
-        chosen = most_accurate(ranked)
     if chosen is not None:
-        scene = None
-        if engine_ok is not None:
-            try:
-                scene = engine_ok.load_scene(study.scenes[0].path)
-            except (ModeselError, OSError) as exc:
-                notes.append(f"shapes drawn without the scene's turbine: {exc}")
-        svg, shape_notes = shapes_figure(ModeSet.from_dict(trials[int(chosen["trial"])].user_attrs["modeset_json"]),
-                                         scene)
+        svg, shape_notes = shapes_figure(chosen, scene)
         figures["shapes"] = svg
         notes += shape_notes
-    sentences = tolerance_sentences(ranked, study)
-    info = dict(info, storage_display=mask_url(storage))
-    atomic_write_text(out_dir / "report.html", render_html(study, summary, sentences, figures, notes, info))
-    summary["sentences"] = sentences
-    summary["notes"] = notes
-    return summary
+    return render_html(study, summary, sentences, figures, notes, info)

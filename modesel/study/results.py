@@ -17,27 +17,37 @@ written to a temporary file in the same folder, then `os.replace`d).
 - ``best_modeset.json``: the cheapest set meeting the tolerance, or the most
   accurate one if none does; ``selection`` says which.
 - ``timeseries/``: the compared channels of featured trials (and the
-  reference) so `modesel report` can redraw the overlays.
+  reference) so `modesel report` can redraw the overlays
+  (`modesel.study.timeseries`).
 - ``run.json``: the study text, storage and study name `modesel report` needs.
+- ``report.html``: the page `modesel.study.report` renders.
 
-Errors are recomputed from each trial's per-channel errors with the study's
-current criterion, so a changed tolerance re-ranks without re-simulating.
+`refresh(out_dir)` rebuilds all of them from the study's storage. The
+tables come from `modesel.study.ranking` (errors recomputed with the study's
+current criterion, so a changed tolerance re-ranks without re-simulating).
+A featured trial without stored series (run by a remote worker, or pruned)
+is simulated again when the engine is available.
 """
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from modesel.errors import ModeselError
-from modesel.files import atomic_write_text  # noqa: F401  (re-exported)
+from modesel.files import atomic_write_text
 from modesel.modeset import ModeSet
+from modesel.study import report
+from modesel.study.ranking import best_modeset, featured_trials, pareto, rank, trial_table
+from modesel.study.search import Objective, load_scenes, mask_url, open_study, prepare_references
+from modesel.study.search import engine as engines
+from modesel.study.spec import parse_study
+from modesel.study.timeseries import prune_series, read_series, write_series
 
 RUN_INFO = "run.json"
-SERIES_DIR = "timeseries"
+KEEP_SERIES_TOP = 10
 
 
 def write_json(path, data) -> None:
@@ -82,177 +92,7 @@ def read_run_info(out_dir) -> dict:
     return info
 
 
-# --------------------------------------------------------------------------- time series
-
-def series_path(out_dir, trial: int | str) -> Path:
-    name = "reference" if trial == "reference" else f"trial_{int(trial):05d}"
-    return Path(out_dir) / SERIES_DIR / f"{name}.csv"
-
-
-def write_series(out_dir, trial: int | str, by_scene: dict) -> None:
-    """Store {scene: (time, {channel: values})} as one long CSV (column `scene`)."""
-    frames = []
-    for scene, (time, channels) in by_scene.items():
-        frames.append(pd.DataFrame({"scene": scene, "Time": time, **channels}))
-    path = series_path(out_dir, trial)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_csv(path, pd.concat(frames, ignore_index=True))
-
-
-def read_series(out_dir, trial: int | str) -> dict | None:
-    """{scene: DataFrame(Time, channels...)} or None when not stored."""
-    path = series_path(out_dir, trial)
-    if not path.exists():
-        return None
-    df = pd.read_csv(path)
-    return {str(s): g.drop(columns="scene").reset_index(drop=True) for s, g in df.groupby("scene", sort=False)}
-
-
-def prune_series(out_dir, keep) -> None:
-    """Delete stored trial series except those of trial numbers in `keep`."""
-    folder = Path(out_dir) / SERIES_DIR
-    keep = {series_path(out_dir, k).name for k in keep}
-    for path in folder.glob("trial_*.csv"):
-        if path.name not in keep:
-            path.unlink(missing_ok=True)
-
-
 # --------------------------------------------------------------------------- tables
-
-def trial_table(trials, study) -> pd.DataFrame:
-    """One row per finished trial (COMPLETE or FAIL) with recomputed errors."""
-    import optuna
-    criterion = study.criterion()
-    channels = list(study.compare.channels)
-    rows = []
-    by_number = {t.number: t for t in trials}
-    for t in trials:
-        if t.state not in (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL):
-            continue
-        a = t.user_attrs
-        if a.get("duplicate_of") in by_number:   # a repeat: the record is the earlier trial's
-            a = dict(by_number[a["duplicate_of"]].user_attrs, duplicate_of=a["duplicate_of"])
-        row = {"trial": t.number, "modeset": a.get("modeset", "")}
-        ms = a.get("modeset_json")
-        ms = ModeSet.from_dict(ms) if ms else None
-        for space in study.search.fields:
-            fm = ms.get(space.field) if ms else None
-            row[f"{space.field}_family"] = fm.family if fm else None
-            row[f"{space.field}_count"] = fm.count if fm else None
-            for fam in space.families:
-                for p in fam.params:
-                    if f"{space.field}_{p}" not in row:
-                        row[f"{space.field}_{p}"] = None
-                    if fm and fm.family == fam.family and p in fm.params:
-                        row[f"{space.field}_{p}"] = fm.params[p]
-        row["n_dofs"] = a.get("n_dofs")
-        complete = t.state == optuna.trial.TrialState.COMPLETE and bool(a.get("errors"))
-        if complete:
-            verdict = criterion.assess(a["errors"])
-            row.update(error=verdict.error, worst_channel=verdict.worst_channel)
-        else:
-            row.update(error=math.nan, worst_channel=None)
-        for ch in channels:
-            row[f"error_{ch}"] = a.get("errors", {}).get(ch, math.nan) if complete else math.nan
-        row.update(wall_time_s=a.get("wall_time_s", math.nan),
-                   simulated_time_s=a.get("simulated_time_s", math.nan),
-                   speed=a.get("speed", math.nan), cost=a.get("cost", math.nan),
-                   meets_tolerance=bool(complete and verdict.meets),
-                   status="COMPLETE" if complete else "FAIL",
-                   reason=a.get("fail_reason", "") if not complete else "",
-                   duplicate_of=a.get("duplicate_of"))
-        rows.append(row)
-    df = pd.DataFrame(rows)
-    if df.empty:
-        return df
-    for col in df.columns:
-        if col.endswith("_count") or col in ("n_dofs", "duplicate_of"):
-            df[col] = df[col].astype("Int64")
-    return df
-
-
-def rank(df: pd.DataFrame) -> pd.DataFrame:
-    """Distinct mode sets, best first, with a 1-based `rank` column first."""
-    if df.empty:
-        return df.assign(rank=pd.Series(dtype=int))
-    df = df[df["duplicate_of"].isna()].copy()
-    group = np.where(df["status"] != "COMPLETE", 2, np.where(df["meets_tolerance"], 0, 1))
-    df["_group"] = group
-    df["_k1"] = np.where(group == 0, df["cost"], np.where(group == 1, df["error"], df["trial"]))
-    df["_k2"] = np.where(group == 0, df["n_dofs"].astype(float), df["cost"])
-    df["_k3"] = np.where(group == 0, df["error"], df["trial"])
-    df = df.sort_values(["_group", "_k1", "_k2", "_k3", "trial"], na_position="last")
-    df = df.drop(columns=["_group", "_k1", "_k2", "_k3"])
-    df.insert(0, "rank", np.arange(1, len(df) + 1))
-    return df.reset_index(drop=True)
-
-
-def pareto(df: pd.DataFrame) -> pd.DataFrame:
-    """Completed distinct sets not dominated in (error, cost), cheapest first."""
-    if df.empty:
-        return df
-    done = df[(df["status"] == "COMPLETE") & df["duplicate_of"].isna()]
-    done = done.sort_values(["cost", "error", "n_dofs", "trial"])
-    keep, best_error = [], math.inf
-    for idx, row in done.iterrows():
-        if row["error"] < best_error:
-            keep.append(idx)
-            best_error = row["error"]
-    return done.loc[keep].reset_index(drop=True)
-
-
-def choose(ranked: pd.DataFrame, tolerance: float | None = None, criterion=None):
-    """Cheapest completed set whose error <= tolerance (row), else None."""
-    if ranked.empty:
-        return None
-    done = ranked[ranked["status"] == "COMPLETE"]
-    ok = done[done["error"] <= tolerance] if tolerance is not None else done[done["meets_tolerance"]]
-    if ok.empty:
-        return None
-    return ok.sort_values(["cost", "n_dofs", "error", "trial"]).iloc[0]
-
-
-def most_accurate(ranked: pd.DataFrame):
-    done = ranked[ranked["status"] == "COMPLETE"] if not ranked.empty else ranked
-    if done.empty:
-        return None
-    return done.sort_values(["error", "cost", "trial"]).iloc[0]
-
-
-def best_modeset(ranked: pd.DataFrame, study, trials_by_number: dict) -> dict:
-    """Content of best_modeset.json."""
-    row = choose(ranked, study.compare.tolerance)
-    selection = "cheapest set meeting the tolerance"
-    if row is None:
-        row = most_accurate(ranked)
-        selection = "most accurate set (none met the tolerance)"
-    if row is None:
-        return {"study": study.name, "selection": "none (no trial completed)", "fields": {},
-                "tolerance": study.compare.tolerance}
-    attrs = trials_by_number[int(row["trial"])].user_attrs
-    data = ModeSet.from_dict(attrs["modeset_json"]).to_dict()
-    data.update(study=study.name, selection=selection, label=row["modeset"], trial=int(row["trial"]),
-                meets_tolerance=bool(row["meets_tolerance"]), tolerance=study.compare.tolerance,
-                metric=study.compare.metric, error=float(row["error"]),
-                worst_channel=row["worst_channel"], errors=dict(attrs["errors"]),
-                n_dofs=None if pd.isna(row["n_dofs"]) else int(row["n_dofs"]),
-                wall_time_s=float(row["wall_time_s"]), speed=float(row["speed"]),
-                cost=float(row["cost"]), cost_measure=study.search.cost)
-    return data
-
-
-def featured_trials(ranked: pd.DataFrame, study) -> dict:
-    """{description: trial number}: chosen set per tolerance level and the most accurate."""
-    out = {}
-    for level in study.compare.levels:
-        row = choose(ranked, level)
-        if row is not None:
-            out[f"cheapest within {level:.3g}"] = int(row["trial"])
-    row = most_accurate(ranked)
-    if row is not None:
-        out["most accurate"] = int(row["trial"])
-    return out
-
 
 def write_results(out_dir, optuna_study, study) -> dict:
     """Write trials.csv, pareto.csv and best_modeset.json; return the tables."""
@@ -268,3 +108,65 @@ def write_results(out_dir, optuna_study, study) -> dict:
     write_json(out_dir / "best_modeset.json", best)
     return {"table": table, "ranked": ranked, "pareto": front, "best": best,
             "featured": featured_trials(ranked, study)}
+
+
+# --------------------------------------------------------------------------- refresh
+
+def resimulate_series(out_dir, study, missing: dict, engine, notes: list) -> None:
+    """Simulate again the sets {trial number: ModeSet} whose series are not
+    stored and store them; a problem becomes a note."""
+    try:
+        scenes = load_scenes(study, engine)
+        refs = prepare_references(study, scenes, engine, Path(out_dir) / "reference")
+        objective = Objective(study, scenes, refs, engine)
+        for number, modeset in missing.items():
+            write_series(out_dir, number, objective.evaluate(modeset)["_series"])
+    except (ModeselError, ImportError) as exc:
+        notes.append(f"time series of trials {sorted(missing)} not drawn: {exc}")
+
+
+def refresh(out_dir, *, storage: str | None = None, engine=None, log=None) -> dict:
+    """Rewrite trials.csv, pareto.csv, best_modeset.json, the featured time
+    series and report.html of `out_dir` from its storage (or `storage`).
+    Returns the summary with the tolerance sentences under 'sentences'."""
+    out_dir = Path(out_dir)
+    info = read_run_info(out_dir)
+    study = parse_study(info["study_toml"], info["study_file"])
+    storage = storage or info["storage"]
+    opt = open_study(study, storage, create=False)
+    summary = write_results(out_dir, opt, study)
+    ranked, featured = summary["ranked"], summary["featured"]
+    trials = {t.number: t for t in opt.get_trials(deepcopy=False)}
+    notes = []
+
+    missing = {n: ModeSet.from_dict(trials[n].user_attrs["modeset_json"])
+               for n in set(featured.values()) if read_series(out_dir, n) is None}
+    try:
+        engine = engines.resolve(engine)
+    except ImportError as exc:
+        engine = None
+        notes.append(f"simulator not available: {exc}")
+    if missing and engine is not None:
+        if log:
+            log(f"simulating again trials {sorted(missing)} for the report time series")
+        resimulate_series(out_dir, study, missing, engine, notes)
+    keep = set(featured.values()) | set(ranked["trial"].head(KEEP_SERIES_TOP).astype(int)) \
+        if not ranked.empty else set()
+    prune_series(out_dir, keep)
+    summary["reference_info"] = info.get("reference_info", {})
+
+    chosen, scene = None, None          # the selected set (best_modeset.json), drawn with its turbine
+    if "trial" in summary["best"]:
+        chosen = ModeSet.from_dict(trials[summary["best"]["trial"]].user_attrs["modeset_json"])
+        if engine is not None:
+            try:
+                scene = engine.load_scene(study.scenes[0].path)
+            except (ModeselError, OSError) as exc:
+                notes.append(f"shapes drawn without the scene's turbine: {exc}")
+    sentences = report.tolerance_sentences(ranked, study)
+    page = report.render(out_dir, study, summary, sentences, chosen, scene, notes,
+                         dict(info, storage_display=mask_url(storage)))
+    atomic_write_text(out_dir / "report.html", page)
+    summary["sentences"] = sentences
+    summary["notes"] = notes
+    return summary

@@ -2,7 +2,10 @@
 
 Front functions: `load_turbine(name_or_path)` (a deck path or the built-in
 name `nrel5mw`) and `read_elastodyn(path)` (an ElastoDyn main file or an
-OpenFAST `.fst` main file whose `EDFile` is followed).
+OpenFAST `.fst` main file whose `EDFile` is followed). Raw deck access for
+writers (`modesel.export.elastodyn_writer`): `Deck` (one input file, its
+labelled values and its normalised text), `read_deck(path, kind)` (openfast_io's
+dictionary of a normalised file), `referenced_file` and `has_label`.
 
 How the deck is read
 --------------------
@@ -149,15 +152,15 @@ def read_elastodyn(path) -> Turbine:
         raise ModeselError("file not found", file=str(path))
     notes = []
     gravity = None
-    if _has_label(path, "EDFile"):
-        fst, fst_deck = _read(path, "main")
+    if has_label(path, "EDFile"):
+        fst, fst_deck = read_deck(path, "main")
         if "Gravity" in fst_deck.found:
             gravity = _number(fst, "Gravity", "Gravity", fst_deck)
-        ed_path = _referenced(path, fst["EDFile"], "EDFile")
+        ed_path = referenced_file(path, fst["EDFile"], "EDFile")
         notes += fst_deck.notes(ignore=("Gravity",))
     else:
         ed_path = path
-    ed, ed_deck = _read(ed_path, "elastodyn")
+    ed, ed_deck = read_deck(ed_path, "elastodyn")
     notes += ed_deck.notes()
     if gravity is None and "Gravity" in ed_deck.found:
         gravity = _checked_float(float_read(ed_deck.value("Gravity")), "Gravity", ed_deck)
@@ -180,9 +183,9 @@ def read_elastodyn(path) -> Turbine:
         raise ModeselError(f"TipRad ({tip_radius:g} m) must exceed HubRad ({hub_radius:g} m)",
                            file=str(ed_path), field="TipRad")
 
-    tower_file = _referenced(ed_path, ed["TwrFile"], "TwrFile")
+    tower_file = referenced_file(ed_path, ed["TwrFile"], "TwrFile")
     tower, tower_shapes = _tower(tower_file, tower_height - tower_base)
-    blade_files = [_referenced(ed_path, ed[f"BldFile{k}"], f"BldFile({k})") for k in per_blade]
+    blade_files = [referenced_file(ed_path, ed[f"BldFile{k}"], f"BldFile({k})") for k in per_blade]
     blade, blade_shapes = _blade(blade_files[0], tip_radius - hub_radius, hub_radius)
     if any(f.read_bytes() != blade_files[0].read_bytes() for f in blade_files[1:]):
         notes.append("blade files differ between blades: modesel uses BldFile(1) for every blade.")
@@ -247,7 +250,7 @@ def _node_count(value: float, label: str, deck) -> int:
 # --------------------------------------------------------------------------
 
 def _tower(path: Path, length: float):
-    tw, deck = _read(path, "tower")
+    tw, deck = read_deck(path, "tower")
     num = functools.partial(_number, tw, deck=deck)
     fraction = _column(tw, "HtFract", deck)
     mass = _column(tw, "TMassDen", deck) * num("AdjTwMa", "AdjTwMa")
@@ -280,7 +283,7 @@ def _tower(path: Path, length: float):
 
 
 def _blade(path: Path, length: float, hub_radius: float):
-    bl, deck = _read(path, "blade")
+    bl, deck = read_deck(path, "blade")
     num = functools.partial(_number, bl, deck=deck)
     fraction = _column(bl, "BlFract", deck)
     _check_fractions(fraction, "BlFract", deck)
@@ -351,7 +354,7 @@ def _coefficients(values: dict, key: str, deck) -> list:
     return [_checked_float(v, f"{key}({k + 2})", deck) for k, v in enumerate(values[key])]
 
 
-def _referenced(parent: Path, name: str, label: str) -> Path:
+def referenced_file(parent: Path, name: str, label: str) -> Path:
     """A file named in `parent` (relative names are relative to parent's folder)."""
     name = str(name).strip()
     target = Path(fix_path(name))
@@ -412,7 +415,7 @@ def _layout(kind: str) -> tuple:
     return tuple(entries)
 
 
-class _Deck:
+class Deck:
     """The text of one input file, its labelled values and its station table."""
 
     def __init__(self, path: Path, kind: str):
@@ -533,9 +536,9 @@ class _Deck:
         return "\n".join(out) + "\n"
 
 
-def _read(path: Path, kind: str):
+def read_deck(path: Path, kind: str):
     """Normalise `path` and read it with openfast_io; return (values, deck)."""
-    deck = _Deck(path, kind)
+    deck = Deck(path, kind)
     text = deck.normalised()
     spec = _KINDS[kind]
     reader = InputReader_OpenFAST()
@@ -557,7 +560,7 @@ def _read(path: Path, kind: str):
     return (values[0] if isinstance(values, list) else values), deck
 
 
-def _has_label(path: Path, label: str) -> bool:
+def has_label(path: Path, label: str) -> bool:
     """Whether some line of `path` carries the input label `label` (a .fst has EDFile)."""
     try:
         lines = path.read_text(errors="replace").splitlines()

@@ -1,0 +1,82 @@
+"""Who simulates a mode set: the claim protocol of the trials.
+
+Several workers (processes, machines) propose sets at the same time, and a
+sampler that has converged proposes the same set again and again. A set is
+simulated once; every other trial proposing it takes that trial's record
+(user attribute ``duplicate_of``). The storage offers no atomic
+test-and-set, only user attributes that every worker reads, so the owner of
+a set is decided by Lamport's bakery algorithm (Lamport 1974, "A new
+solution of Dijkstra's concurrent programming problem") with the set's
+label as the lock:
+
+1. claim: user attribute ``modeset`` = label (the trial is *choosing*);
+2. ticket: user attribute ``ticket`` = 1 + the largest ticket of the trials
+   that claimed the label;
+3. wait while another claimant of the label is choosing or holds a smaller
+   (ticket, trial number); then take the record of a claimant that has
+   finished, or, when there is none, simulate the set.
+
+A trial that takes its ticket after another trial's claim is visible gets a
+larger ticket, so two trials never both simulate a set. (Ordering by trial
+number alone does not do that: the number is fixed when the trial is
+created, before its set is known, so a trial created later that claimed
+first and one created earlier that claimed second both simulated.)
+Trials cut short by an interruption (fail_reason ``interrupted``) and
+repeats never own a set.
+"""
+from __future__ import annotations
+
+import time
+
+INTERRUPTED = "interrupted"
+
+
+def interrupted(trial) -> bool:
+    """Whether `trial` (a FrozenTrial) was cut short by an interruption."""
+    return trial.user_attrs.get("fail_reason") == INTERRUPTED
+
+
+def distinct_sets(study) -> set:
+    """Labels of the mode sets evaluated so far (interrupted trials excluded)."""
+    import optuna
+    TS = optuna.trial.TrialState
+    return {t.user_attrs["modeset"] for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
+            if "modeset" in t.user_attrs and not interrupted(t)}
+
+
+def _claims(study, trial, label) -> list:
+    """Other trials that claimed `label` and may own it (finished or running)."""
+    import optuna
+    TS = optuna.trial.TrialState
+    return [t for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL, TS.RUNNING))
+            if t.number != trial.number and t.user_attrs.get("modeset") == label
+            and not interrupted(t) and "duplicate_of" not in t.user_attrs]
+
+
+def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
+    """Claim the set `label` for the running `trial` (an optuna Trial).
+
+    Returns the finished trial whose record `trial` takes, or None when
+    `trial` simulates the set itself (also when the claimant ahead has not
+    finished within `wait_s` seconds, e.g. a worker that died)."""
+    import optuna
+    study = trial.study
+    trial.set_user_attr("modeset", label)                                   # 1. choosing
+    others = [t for t in study.get_trials(deepcopy=False)
+              if t.number != trial.number and t.user_attrs.get("modeset") == label]
+    ticket = 1 + max((int(t.user_attrs.get("ticket", 0)) for t in others), default=0)
+    trial.set_user_attr("ticket", ticket)                                   # 2. ticket
+    mine = (ticket, trial.number)
+    deadline = time.monotonic() + wait_s
+    pause = 0.01
+    while True:                                                             # 3. wait for those ahead
+        rivals = _claims(study, trial, label)
+        finished = [t for t in rivals if t.state != optuna.trial.TrialState.RUNNING]
+        if finished:
+            return finished[0]
+        ahead = [t for t in rivals
+                 if "ticket" not in t.user_attrs or (int(t.user_attrs["ticket"]), t.number) < mine]
+        if not ahead or time.monotonic() > deadline:
+            return None
+        time.sleep(pause)
+        pause = min(poll_s, 2.0 * pause)

@@ -1,0 +1,134 @@
+"""The objective: one mode set evaluated on the load case.
+
+`Objective` runs `simulate` on every scene of the load case, compares with
+the references and returns (error, cost): error = worst weighted channel
+(per channel, the weight-averaged error over the scenes, see
+`load_case_errors`), cost = wall seconds per simulated second (sum over the
+scenes), or the DOF count with ``[search] cost = "dofs"``. It records user
+attributes: modeset (label), modeset_json, errors {channel: error},
+scene_errors, error, worst_channel, meets_tolerance, n_dofs (max over
+scenes, a deterministic cost proxy), wall_time_s, simulated_time_s, speed,
+cost. A `ModeselError` (e.g. `SimulationDiverged`) marks the trial FAIL
+with user attribute fail_reason (and failed_scene) and the study goes on;
+Optuna samplers ignore failed trials. A set already evaluated is not
+simulated again (`modesel.study.search.claims`): the trial gets the earlier
+values and user attributes modeset and duplicate_of (the earlier trial's
+number) only.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from modesel.errors import ModeselError
+from modesel.modeset import ModeSet
+from modesel.study.metrics import metric
+from modesel.study.search.claims import INTERRUPTED, claim
+from modesel.study.search.engine import Engine
+from modesel.study.search.space import SearchSpace
+from modesel.study.timeseries import write_series
+
+
+def load_case_errors(scene_errors: dict, weights: dict) -> dict:
+    """Per channel, the weight-averaged error over the scenes:
+    e_c = sum_s w_s e_sc / sum_s w_s (scene weights as occurrence weights)."""
+    total = sum(weights[s] for s in scene_errors)
+    channels = next(iter(scene_errors.values())).keys()
+    return {ch: sum(weights[s] * scene_errors[s][ch] for s in scene_errors) / total for ch in channels}
+
+
+class Objective:
+    """Evaluates one mode set on the load case; an Optuna objective."""
+
+    def __init__(self, study, scenes: dict, references: dict, engine: Engine,
+                 series_dir: Path | None = None):
+        self.study = study
+        self.scenes = scenes                 # scene name -> Scene
+        self.references = references         # scene name -> Reference
+        self.engine = engine
+        self.series_dir = series_dir
+        self.space = SearchSpace(study.search)
+        self.criterion = study.criterion()
+        self.evaluated = 0          # sets simulated by this process (duplicates excluded)
+        self.duplicate_streak = 0   # consecutive proposals of already evaluated sets
+
+    def evaluate(self, modeset: ModeSet) -> dict:
+        """Simulate every scene with `modeset` and compare; returns the record."""
+        channels = list(self.study.compare.channels)
+        scene_errors, series = {}, {}
+        n_dofs, wall, simulated = 0, 0.0, 0.0
+        for spec in self.study.scenes:
+            try:
+                result = self.engine.simulate(self.scenes[spec.name], modeset, tmax=spec.tmax, dt=spec.dt)
+                aligned = self.references[spec.name].align(result.outputs, channels,
+                                                           file=f"simulation of scene '{spec.name}'")
+                scene_errors[spec.name] = {
+                    ch: metric(self.study.compare.metric, aligned.sim[ch], aligned.ref[ch], aligned.time,
+                               channel=ch) for ch in channels}
+            except ModeselError as exc:
+                exc.scene = spec.name
+                raise
+            n_dofs = max(n_dofs, int(result.n_dofs))
+            wall += float(result.wall_time_s)
+            simulated += float(result.simulated_time_s)
+            series[spec.name] = (aligned.time, aligned.sim)
+        errors = load_case_errors(scene_errors, {s.name: s.weight for s in self.study.scenes})
+        verdict = self.criterion.assess(errors)
+        cost = wall / simulated if simulated > 0 else math.inf
+        return {"modeset": modeset.label(), "modeset_json": modeset.to_dict(), "errors": errors,
+                "scene_errors": scene_errors, "error": verdict.error,
+                "worst_channel": verdict.worst_channel, "meets_tolerance": verdict.meets,
+                "n_dofs": n_dofs, "wall_time_s": wall, "simulated_time_s": simulated,
+                "speed": simulated / wall if wall > 0 else math.inf,
+                "cost": float(n_dofs) if self.study.search.cost == "dofs" else cost,
+                "_series": series}
+
+    def warm_up(self) -> None:
+        """Simulate a few steps of the first scene with its default set, untimed:
+        the first simulation in a process pays one-off costs (imports, JIT
+        compilation) that would otherwise inflate the first trial's cost."""
+        spec = self.study.scenes[0]
+        scene = self.scenes[spec.name]
+        dt = spec.dt or getattr(scene, "dt", None)
+        try:
+            self.engine.simulate(scene, None, tmax=5 * dt if dt else None, dt=dt)
+        except ModeselError:
+            pass
+
+    def __call__(self, trial):
+        try:
+            return self._run(trial)
+        except KeyboardInterrupt:       # while waiting for a claim or simulating
+            trial.set_user_attr("fail_reason", INTERRUPTED)
+            raise
+
+    def _run(self, trial):
+        modeset = self.space.suggest(trial)
+        earlier = claim(trial, modeset.label())
+        if earlier is not None:   # the record stays with the earlier trial
+            self.duplicate_streak += 1
+            trial.set_user_attr("duplicate_of", earlier.number)
+            if earlier.values is None:
+                raise ModeselError(earlier.user_attrs.get("fail_reason", "failed"))
+            return tuple(earlier.values)
+        self.duplicate_streak = 0
+        self.evaluated += 1
+        trial.set_user_attr("modeset_json", modeset.to_dict())
+        try:
+            record = self.evaluate(modeset)
+        except ModeselError as exc:
+            trial.set_user_attr("fail_reason", str(exc))
+            if getattr(exc, "scene", None):
+                trial.set_user_attr("failed_scene", exc.scene)
+            if getattr(exc, "time", None) is not None:
+                trial.set_user_attr("failed_at_s", exc.time)
+            raise
+        except Exception as exc:  # a bug, not a user problem: record it, then stop the study
+            trial.set_user_attr("fail_reason", f"internal error: {type(exc).__name__}: {exc}")
+            raise
+        series = record.pop("_series")
+        for key, value in record.items():
+            trial.set_user_attr(key, value)
+        if self.series_dir is not None:
+            write_series(self.series_dir, trial.number, series)
+        return record["error"], record["cost"]

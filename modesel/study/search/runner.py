@@ -1,0 +1,249 @@
+"""Running the search: budget, progress and worker processes.
+
+`run_search` ties the pieces together: it loads the load case
+(`load_case`), opens the stored study (`storage`), queues interrupted trials
+again and, on a new study, the scene's default set, and optimises the
+`Objective` with the study's sampler. With n_jobs > 1 it starts that many
+loky processes (joblib), each optimising the same stored study. Callbacks:
+`Budget` (this process's share of new sets) and
+`modesel.study.metrics.StopWhenMet` (stop when the criterion is met, after
+``keep_searching_trials`` more).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from modesel.errors import ModeselError
+from modesel.study.metrics import StopWhenMet
+from modesel.study.search import engine as engines
+from modesel.study.search.claims import distinct_sets
+from modesel.study.search.engine import Engine
+from modesel.study.search.load_case import load_scenes, prepare_references
+from modesel.study.search.objective import Objective
+from modesel.study.search.samplers import make_sampler, worker_seed
+from modesel.study.search.storage import (default_storage, open_storage, open_study, queue_baseline,
+                                          requeue_interrupted)
+from modesel.study.timeseries import write_series
+
+
+def _quiet_optuna():
+    import optuna
+    optuna.logging.set_verbosity(logging.ERROR)
+    import warnings
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+
+
+class Budget:
+    """Optuna callback: stop this process after `quota` evaluated sets (repeats
+    of an evaluated set do not count) or when every set of a finite space has
+    been evaluated.
+
+    Samplers converge and then keep proposing sets already evaluated (TPE on a
+    few dozen discrete sets does so most of the time). After `kick_after`
+    repeats in a row, a random set not yet evaluated is queued (an
+    exploration step, drawn with this worker's seed); if none is found in
+    `draws` draws, or after `max_streak` repeats in a row, the process stops.
+    """
+
+    def __init__(self, objective: Objective, quota: int, seed: int = 0, kick_after: int = 3,
+                 max_streak: int = 50, draws: int = 2000):
+        self.objective = objective
+        self.quota = quota
+        self.kick_after = kick_after
+        self.max_streak = max_streak
+        self.draws = draws
+        self.space_size = objective.space.size()
+        self.rng = np.random.default_rng(seed)
+
+    def exhausted(self, study) -> bool:
+        if math.isinf(self.space_size):
+            return False
+        return len(distinct_sets(study)) >= self.space_size
+
+    def __call__(self, study, trial) -> None:
+        obj = self.objective
+        if obj.evaluated >= self.quota or obj.duplicate_streak >= self.max_streak or self.exhausted(study):
+            study.stop()
+        elif obj.duplicate_streak >= self.kick_after:
+            seen = distinct_sets(study)
+            for _ in range(self.draws):
+                candidate = obj.space.random_set(self.rng)
+                if candidate.label() not in seen:
+                    study.enqueue_trial(obj.space.params(candidate))
+                    obj.duplicate_streak = 0
+                    return
+            study.stop()
+
+
+def optimize_worker(objective: Objective, storage_url, study, sampler_name: str,
+                    seed: int, n_trials: int, timeout: float | None, callbacks: list,
+                    progress=None) -> str | None:
+    """Evaluate `n_trials` new sets of the stored study in this process. Returns
+    None, or the one-line text of a ModeselError (errors cross process
+    boundaries as text)."""
+    _quiet_optuna()
+    try:
+        sampler = make_sampler(sampler_name, seed, n_trials)
+        opt = open_study(study, storage_url, sampler, create=False)
+        budget = Budget(objective, n_trials, seed)
+        if budget.exhausted(opt):
+            return None
+        objective.warm_up()
+        cbs = [budget] + list(callbacks) + ([progress] if progress else [])
+        opt.optimize(objective, n_trials=None, timeout=timeout, callbacks=cbs, catch=(ModeselError,))
+    except ModeselError as exc:
+        return str(exc)
+    return None
+
+
+class Progress:
+    """tqdm bar on stderr when it is a terminal; updated per finished trial."""
+
+    def __init__(self, total: int, name: str, enabled: bool | None = None):
+        enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True)
+        self.done = 0
+
+    def set(self, done: int, best: float | None = None, failed: int = 0):
+        if self.bar is None:
+            return
+        self.bar.update(max(0, done - self.done))
+        self.done = max(self.done, done)
+        self.bar.set_postfix_str((f"best error {best:.3g}" if best is not None else "") +
+                                 (f" failed {failed}" if failed else ""))
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def counts(opt, since: int, criterion):
+    """(sets evaluated since trial `since`, best error so far, failed since) for the progress bar."""
+    import optuna
+    TS = optuna.trial.TrialState
+    done = [t for t in opt.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
+            if t.number >= since and "duplicate_of" not in t.user_attrs]
+    errors = [criterion.assess(t.user_attrs["errors"]).error for t in opt.get_trials(
+        deepcopy=False, states=(TS.COMPLETE,)) if t.user_attrs.get("errors")]
+    return len(done), (min(errors) if errors else None), sum(1 for t in done if t.state == TS.FAIL)
+
+
+@dataclass
+class SearchOutcome:
+    """`n_new`: sets evaluated by this run; `n_repeats`: proposals of sets
+    already evaluated (served from the record); `requeued`: interrupted
+    trials queued again; `baseline`: the scene's default set was queued."""
+
+    optuna_study: object
+    storage_url: str
+    n_new: int
+    n_repeats: int
+    requeued: int
+    already_met: bool
+    references: dict
+    baseline: bool = False
+
+
+def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int | None = None,
+               timeout: float | None = None, n_jobs: int | None = None, seed: int | None = None,
+               engine: Engine | None = None, cache_dir=None, progress: bool | None = None,
+               log: Callable | None = None, salt: int = 0) -> SearchOutcome:
+    """Run (or resume) the search of `study`; CLI options override the study's
+    [budget]/[run] values. Without `storage` the journal file in `out_dir` is
+    used. Trial time series go to `out_dir` when given."""
+    _quiet_optuna()
+    engine = engines.resolve(engine)
+    log = log or (lambda msg: None)
+    n_trials = study.budget.n_trials if n_trials is None else int(n_trials)
+    timeout = study.budget.timeout_s if timeout is None else float(timeout)
+    n_jobs = study.run.n_jobs if n_jobs is None else int(n_jobs)
+    seed = study.run.seed if seed is None else int(seed)
+    if n_trials < 1 or n_jobs < 1:
+        raise ModeselError("--n-trials and --n-jobs must be >= 1")
+    storage = storage or study.run.storage
+    if storage is None:
+        if out_dir is None:
+            raise ModeselError("no storage: give an output folder or --storage URL")
+        storage = default_storage(out_dir)
+    # the output folder's own journal belongs to this run (and its child
+    # processes): a RUNNING trial found there was cut short by an interruption
+    private = out_dir is not None and isinstance(storage, str) and "://" not in storage \
+        and Path(storage).resolve() == Path(default_storage(out_dir))
+    if cache_dir is None and out_dir is not None:
+        cache_dir = Path(out_dir) / "reference"
+
+    scenes = load_scenes(study, engine)
+    references = prepare_references(study, scenes, engine, cache_dir, log)
+    if out_dir is not None:
+        write_series(out_dir, "reference", {name: (r.time, r.channels) for name, r in references.items()})
+
+    store = open_storage(storage)
+    opt = open_study(study, storage, create=True, storage=store)
+    n_before = len(opt.get_trials(deepcopy=False))
+    requeued = requeue_interrupted(opt, store, fail_running=private)
+    baseline = queue_baseline(opt, study, scenes)
+    stop = StopWhenMet(study.criterion(), study.budget.keep_searching_trials) \
+        if study.budget.stop_when_met else None
+    callbacks = [stop] if stop else []
+    if stop and stop.is_satisfied(opt):
+        log("the tolerance is already met and keep_searching_trials done; no new trial "
+            "(set [budget] stop_when_met = false or raise keep_searching_trials to search on)")
+        return SearchOutcome(opt, storage, 0, 0, requeued, True, references)
+
+    objective = Objective(study, scenes, references, engine,
+                          None if out_dir is None else Path(out_dir).resolve())
+    since = n_before
+    n_jobs = min(n_jobs, n_trials)
+    shares = [n_trials // n_jobs + (1 if i < n_trials % n_jobs else 0) for i in range(n_jobs)]
+    bar = Progress(n_trials, study.name, progress)
+    criterion = study.criterion()
+    try:
+        if n_jobs == 1:
+            def tick(s, t):
+                bar.set(*counts(s, since, criterion))
+            error = optimize_worker(objective, store, study, study.search.sampler,
+                                    worker_seed(seed, n_before, 0, salt), n_trials, timeout, callbacks,
+                                    tick if bar.bar is not None else None)
+            errors = [error] if error else []
+        else:
+            seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
+            errors = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks,
+                                   lambda: bar.set(*counts(opt, since, criterion)))
+    finally:
+        bar.close()
+    if errors:
+        raise ModeselError(errors[0])   # already "file: field: message" text from the worker
+    new = opt.get_trials(deepcopy=False)[n_before:]
+    repeats = sum(1 for t in new if "duplicate_of" in t.user_attrs)
+    return SearchOutcome(opt, storage, len(new) - repeats, repeats, requeued, False, references, baseline)
+
+
+def _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, poll):
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from joblib.externals.loky import get_reusable_executor
+    executor = get_reusable_executor(max_workers=len(shares), reuse=False)
+    futures = [executor.submit(optimize_worker, objective, storage, study, study.search.sampler,
+                               worker_seed_i, share, timeout, callbacks)
+               for worker_seed_i, share in zip(seeds, shares)]
+    try:
+        pending = set(futures)
+        while pending:
+            _, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            poll()
+    except KeyboardInterrupt:
+        # stop the workers and wait until they are gone, so that no trial
+        # finishes after the results of the finished trials have been written
+        executor.shutdown(wait=True, kill_workers=True)
+        raise
+    return [f.result() for f in futures if f.result()]
