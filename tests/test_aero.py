@@ -19,10 +19,10 @@ import pytest
 from scipy.optimize import brentq
 
 from modesel.errors import ModeselError
-from modesel.aero import (AeroBlade, BemOptions, BemSolver, Polar, PolarSet,
-                                        TowerDrag, Wind, axial_induction, pitt_peters,
-                                        prandtl_loss, read_aerodyn, skew_angles, steady_rotor,
-                                        thrust_coefficient)
+from modesel.aero import (AeroBlade, BemOptions, BemSolver, Polar, PolarSet, TowerDrag, Wind,
+                          axial_induction, pitt_peters, prandtl_loss, skew_angles, steady_rotor,
+                          thrust_coefficient)
+from modesel.turbine.aerodyn import read_aerodyn
 from modesel.aero.bem import PITT_PETERS_FACTOR
 
 HERE = os.path.dirname(__file__)

@@ -13,7 +13,8 @@ import sympy as sp
 
 from modesel.cli import main
 from modesel.simulation.api import build, load_scene
-from modesel.multibody.symbolic import derive_scene, write_latex, write_python
+from modesel.multibody.symbolic import write_latex, write_python
+from modesel.simulation.symbolic import derive_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "studies" / "scenes"

@@ -326,7 +326,8 @@ def read_ct(lam, pitch_deg=0.0):
 
 
 def test_rated_wind_thrust_matches_ct_table_and_rigid_bem(rated_run):
-    from modesel.aero import read_aerodyn, steady_rotor
+    from modesel.aero import steady_rotor
+    from modesel.turbine.aerodyn import read_aerodyn
     out = rated_run.outputs
     last = out[out.Time >= out.Time.iloc[-1] - 20.0]
     thrust = last.RtAeroFxh.mean()

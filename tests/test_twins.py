@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from modesel.aero import BemOptions, BemSolver, Wind, read_aerodyn, skew_angles
+from modesel.aero import BemOptions, BemSolver, Wind, skew_angles
+from modesel.turbine.aerodyn import read_aerodyn
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import COLUMNS, wind_velocity
 from modesel.model.effects.aero import inflow
@@ -228,7 +229,8 @@ def kinematics(rng):
 def symbolic(rng):
     """M, F of the first paper's 2-DOF model: SymPy derivation and its generated module
     (multibody.symbolic.write_python) / numpy engine / numba kernel."""
-    from modesel.multibody.symbolic import derive_scene, write_python
+    from modesel.multibody.symbolic import write_python
+    from modesel.simulation.symbolic import derive_scene
     scene = load_scene(SCENES / "paper_2dof_tower_shaft.toml")
     built, model = build(scene), derive_scene(scene)
     with tempfile.TemporaryDirectory() as folder:

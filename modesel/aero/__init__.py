@@ -1,7 +1,8 @@
 """Aerodynamics of the reduced turbine model (second paper, section 3, eqs. 51-52).
 
-- `read_aerodyn(path)` -> `AeroDynDeck`: blades (`AeroBlade`, airfoil
-  `PolarSet`), air density, BEM switches (`BemOptions`), tower table (`TowerDrag`).
+Physics only; the AeroDyn deck that feeds it (`AeroDynDeck`: blades,
+airfoil `PolarSet`, air density, `BemOptions`, tower table) is read by
+`modesel.turbine.aerodyn.read_aerodyn`.
 - `BemSolver(...).solve(r, V_n, V_t, pitch, skew, skew_azimuth)` ->
   `ElementLoads`: vectorised quasi-steady BEM for all blade elements
   (Prandtl tip/hub loss, Buhl/Glauert, Pitt/Peters); f_n, f_t [N/m].
@@ -17,12 +18,11 @@ from modesel.aero.bem import (BemOptions, BemSolver, ElementLoads, axial_inducti
                                             pitt_peters, prandtl_loss, skew_angles,
                                             thrust_coefficient)
 from modesel.aero.blade import AeroBlade
-from modesel.turbine.aerodyn import AeroDynDeck, read_aerodyn, read_aerodyn_blade
 from modesel.aero.rotor import steady_rotor
 from modesel.aero.tower_drag import TowerDrag
 from modesel.aero.wind import Wind
 
-__all__ = ["AeroBlade", "AeroDynDeck", "BemOptions", "BemSolver", "ElementLoads", "Polar",
+__all__ = ["AeroBlade", "BemOptions", "BemSolver", "ElementLoads", "Polar",
            "PolarSet", "TowerDrag", "Wind", "axial_induction", "pitt_peters", "prandtl_loss",
-           "read_aerodyn", "read_aerodyn_blade", "read_polars", "skew_angles", "steady_rotor",
+           "read_polars", "skew_angles", "steady_rotor",
            "thrust_coefficient"]

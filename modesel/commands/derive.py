@@ -35,7 +35,7 @@ def register(sub):
 def run(args) -> int:
     from modesel.multibody import linearize as lin
     from modesel.simulation.api import load_scene
-    from modesel.multibody.symbolic import derive_scene
+    from modesel.simulation.symbolic import derive_scene
     from modesel.multibody.symbolic.approximations import parse_orders
     from modesel.multibody.symbolic.export import latex_source, python_source
 

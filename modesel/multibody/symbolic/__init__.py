@@ -4,7 +4,7 @@ sections 2-4), from the same `System` data objects as the numeric engine.
 
 Front functions:
     derive(system, small_angle=None)  -> SymbolicModel
-    derive_scene(scene, small_angle=None) -> SymbolicModel (small models only)
+    (scenes: `modesel.simulation.symbolic.derive_scene`, small models only)
     write_python(model, path), write_latex(model, path)
 
 Modules: parameters (named constants and values), reduction (exact lumping
@@ -13,6 +13,6 @@ kane (kinematics and Kane assembly), approximations (small angles,
 linearisation), model (SymbolicModel), export (Python and LaTeX).
 """
 from modesel.multibody.symbolic.export import write_latex, write_python
-from modesel.multibody.symbolic.model import SymbolicModel, check_supported, derive, derive_scene
+from modesel.multibody.symbolic.model import SymbolicModel, derive
 
-__all__ = ["SymbolicModel", "check_supported", "derive", "derive_scene", "write_latex", "write_python"]
+__all__ = ["SymbolicModel", "derive", "write_latex", "write_python"]
