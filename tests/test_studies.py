@@ -9,7 +9,7 @@ from modesel.cli import main
 
 def _run(study, out, *extra):
     assert main(["run", study, "--out", str(out), *extra]) == 0
-    trials = pd.read_csv(out / "trials.csv")
+    trials = pd.read_csv(out / "trials.csv", header=[0, 1]).droplevel(1, axis=1)   # second row: units
     best = json.loads((out / "best_modeset.json").read_text())
     assert (out / "report.html").is_file() and (out / "pareto.csv").is_file()
     return trials, best
