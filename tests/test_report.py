@@ -101,7 +101,38 @@ def test_report_is_self_contained_and_states_each_tolerance(finished):
     ratio = tight["cost_wall_s_per_sim_s"] / cheapest["cost_wall_s_per_sim_s"]
     assert re.search(rf"1 % needs {re.escape(tight['modeset'])} \({tight['n_dofs']} DOFs, [0-9.e-]+ s per "
                      rf"simulated s\) at {ratio:.3g} times the cost\.", text)
-    assert text.count("<svg") == 4         # Pareto, history, one scene's series, shapes
+    assert text.count("<svg") == 5         # Pareto, history, one scene's series, its error over time, shapes
+
+
+def test_report_axes_units_layout_and_pareto_titles(finished):
+    """The issue's check: every axis label of a physical channel carries a unit,
+    no table is wider than its container, nothing external, every Pareto point
+    identifiable, legends outside the data."""
+    text = (finished / "report.html").read_text()
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", text)
+    # every reference is to an element of the page itself
+    refs = re.findall(r"url\(([^)]*)\)", text) + re.findall(r"""(?:xlink:)?href\s*=\s*["']([^"']*)""", text)
+    assert refs and all(r.strip("'\" ").startswith("#") for r in refs), sorted(set(refs))[:5]
+    # tables sit in a box that scrolls sideways; the page is at most 1300 px wide
+    style = re.search(r"<style>(.*?)</style>", text, re.S).group(1)
+    assert re.search(r"\.scroll\{[^}]*max-width:100%[^}]*overflow-x:auto", style)
+    assert text.count("<table") == text.count("<div class='scroll'><table")
+    assert "max-width:1300px" in style
+    # axis labels (svg.fonttype none: <text> elements) of every channel carry its unit
+    labels = re.findall(r"<text[^>]*>([^<]*)</text>", text)
+    from modesel.model.outputs import channel_unit
+    for ch in ("TTDspFA", "OoPDefl1"):
+        assert f"{ch} [{channel_unit(ch)}]" in labels, (ch, labels[:40])
+    assert "time [s]" in labels and any(lab.startswith("error [%]") for lab in labels)
+    assert "cost [wall s per simulated s]" in labels and "error over time" in " ".join(labels)
+    # every completed set is a hoverable point with its trial number and set
+    trials = read_table(finished / "trials.csv")
+    titles = re.findall(r"<title>#(\d+) (.+?): error ", text)
+    done = trials[trials["status"] == "COMPLETE"]
+    assert {int(n) for n, _ in titles} == set(done["trial"])
+    assert all(dict(zip(done["trial"], done["modeset"]))[int(n)] == label for n, label in titles)
+    # percent everywhere: no level written as a fraction
+    assert "cheapest within 3.5 %" in text and "within 0.035" not in text
 
 
 def test_report_rerenders_from_storage(finished, capsys):
@@ -154,7 +185,7 @@ def test_worker_with_sqlite_then_report(tmp_path, capsys):
     assert json.loads((out / "run.json").read_text())["storage"] == url
     # the workers kept no time series: the featured sets were simulated again for the report
     assert "simulating again trials" in capsys.readouterr().err
-    assert (out / "report.html").read_text().count("<svg") == 4
+    assert (out / "report.html").read_text().count("<svg") == 5
 
 
 @pytest.mark.parametrize("make_args, pattern", [

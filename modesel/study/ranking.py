@@ -149,7 +149,7 @@ def featured_trials(ranked: pd.DataFrame, study) -> dict:
     for level in study.compare.levels:
         row = choose(ranked, level)
         if row is not None:
-            out[f"cheapest within {level:.3g}"] = int(row["trial"])
+            out[f"cheapest within {100.0 * level:.3g} %"] = int(row["trial"])
     row = most_accurate(ranked)
     if row is not None:
         out["most accurate"] = int(row["trial"])
