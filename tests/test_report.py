@@ -215,3 +215,38 @@ def test_cli_unknown_key_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "budget.n_trails: unknown key 'n_trails' (did you mean 'n_trials'?)" in err
     assert err.count("\n") == 1
+
+
+def test_campbell_diagram_in_the_report_of_a_rotating_scene(finished, tmp_path):
+    """The chosen set's Campbell diagram is drawn when the scene turns a rotor
+    (here the paper's rotating blade at 12.1 rpm, frequencies against rpm)."""
+    from pathlib import Path
+
+    from modesel.simulation.api import effective_modeset, load_scene
+    from modesel.study import report
+    from modesel.study.results import read_run_info, write_results
+    from modesel.study.search import open_study
+    from modesel.study.spec import parse_study
+    info = read_run_info(finished)
+    study = parse_study(info["study_toml"], info["study_file"])
+    summary = write_results(tmp_path, open_study(study, info["storage"], create=False), study)
+    scene = load_scene(Path(__file__).resolve().parents[1] / "studies/scenes/paper_rotating_blade.toml")
+    assert report.has_rotor(scene) and abs(report.scene_rpm(scene) - 12.1) < 1e-9
+    notes = []
+    page = report.render(finished, study, summary, [], effective_modeset(scene, None), scene, notes, {})
+    assert "<h2>Campbell diagram</h2>" in page, notes
+    campbell = page[page.index("<div class='fig campbell'>"):]
+    campbell = campbell[:campbell.index("</svg>")]
+    texts = re.findall(r"<text[^>]*>([^<]*)</text>", campbell)
+    assert {"1P", "3P", "6P", "rotor speed [rpm]", "frequency [Hz]"} <= {t.strip() for t in texts}, texts
+
+
+def test_linearize_plot_writes_a_campbell_svg(tmp_path, capsys):
+    from pathlib import Path
+    scene = Path(__file__).resolve().parents[1] / "studies/scenes/paper_rotating_blade.toml"
+    out = tmp_path / "campbell.svg"
+    assert main(["linearize", str(scene), "--rpm", "0,6,12.1", "--plot", str(out)]) == 0
+    svg = out.read_text()
+    assert svg.startswith("<svg") and "rotor speed [rpm]" in svg and "6P" in svg and "http" not in svg
+    assert main(["linearize", str(scene), "--plot", str(out)]) == 2
+    assert "needs rotor speeds" in capsys.readouterr().err
