@@ -7,10 +7,16 @@ matplotlib (Agg), namespace and metadata links stripped, and the style sheet
 is inline. Sections: the answer (one sentence per tolerance level, e.g.
 "3.5 % needs tower_fa=clamped:2 (4 DOFs, 0.012 s per simulated s); 1 % needs
 tower_fa=fem:4 (8 DOFs, 0.05 s per simulated s) at 4.2 times the cost."),
-the study summary, accuracy versus cost with the Pareto front, convergence
-history (best error versus trial), the ranked table, time series of the
-featured sets against the reference (from ``timeseries/`` in the output
-folder), the chosen mode shapes and the failed trials with their reasons.
+the study summary, accuracy (error in %) versus cost with the Pareto front
+(every point an SVG <title>: trial, set, error, cost), convergence history,
+the ranked table (failed trials marked, with their reason), time series of
+the featured sets against the reference (tower-top panels, one row per
+blade, then the other channels; from ``timeseries/``), the error of those
+sets over time, a Campbell diagram of the chosen set for a scene that turns
+a rotor (`campbell_figure`, also `modesel linearize --plot`), the chosen
+mode shapes and the failed trials with their reasons. Every axis carries a
+unit (`_unit`: model/outputs.py `channel_unit`), legends sit below the data,
+tables and figures sit in boxes that scroll sideways inside a 1300 px page.
 """
 from __future__ import annotations
 
