@@ -131,3 +131,20 @@ def test_simulate_csv_units_dofs_effects_and_inert_wind(tmp_path, capsys):
     assert "x real time" in captured.out
     assert "wind" in captured.out.split("effects evaluated: ")[1].split(";")[0]
     assert "neither aero nor tower_drag is on: the wind loads nothing" in captured.err
+
+
+def test_progress_bar_and_simulation_line(capsys):
+    from modesel.study.search.progress import Progress, SimulationProgress, speed_text
+    bar = Progress(4, "s", enabled=True, quiet=False)
+    bar.set(2, 0.0123, 1)
+    bar.close()
+    err = capsys.readouterr().err
+    assert "2/4 trials" in err and "best error 1.23 %" in err and "1 failed" in err and "ETA" in err
+    quiet = Progress(4, "s", enabled=False)          # --quiet: no bar, no compile notice
+    quiet.set(1, 0.5, 0)
+    quiet.close()
+    assert quiet.bar is None and capsys.readouterr().err == ""
+    # 20 s simulated in 87 s: two significant digits, not "0x"
+    assert speed_text(20.0, 87.0) == "0.23x real time"
+    line = SimulationProgress("scene: ", enabled=True).line(5.0, 20.0, 10.0)
+    assert line == "scene: simulated 5 of 20 s, 0.5x real time, ETA 30 s"

@@ -97,8 +97,8 @@ class Progress:
         if enabled:
             from tqdm import tqdm
             self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True,
-                            bar_format="{desc}: {n_fmt}/{total_fmt} trials |{bar}| {postfix} "
-                                       "[{elapsed} elapsed, ETA {remaining}]")
+                            bar_format="{desc}: {n_fmt}/{total_fmt} trials |{bar}| "
+                                       "[{elapsed} elapsed, ETA {remaining}]{postfix}")
             self.bar.set_postfix_str("best error -, 0 failed")
 
     @staticmethod
