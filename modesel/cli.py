@@ -48,6 +48,7 @@ COMMANDS = (
     "worker",
     "report",
     "export",
+    "docs",
 )
 
 

@@ -34,3 +34,42 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+# --------------------------------------------------------------------------- CSV with units
+
+def unit_csv_text(df, units: dict, float_format: str = "%.9g") -> str:
+    """CSV text of `df` with a second header row of units in parentheses, as
+    OpenFAST text outputs carry (``Time,TTDspFA`` then ``(s),(m)``); `units`
+    maps column -> unit ("-" dimensionless or text, "%" percent). Read back
+    with ``pandas.read_csv(path, header=[0, 1])`` (`read_unit_csv`)."""
+    import pandas as pd
+    cols = list(df.columns)
+    frame = df.copy()
+    frame.columns = pd.MultiIndex.from_arrays([cols, [f"({units.get(c) or '-'})" for c in cols]])
+    return frame.to_csv(index=False, float_format=float_format)
+
+
+def is_unit_row(cells) -> bool:
+    """Whether the cells of a CSV's second line are a unit row: every cell '(...)'."""
+    cells = [str(c).strip() for c in cells]
+    return bool(cells) and all(len(c) >= 2 and c[0] == "(" and c[-1] == ")" for c in cells)
+
+
+def read_unit_csv(path):
+    """DataFrame of a CSV written by `unit_csv_text` (or one with a single
+    header row), with ``attrs["units"]`` = {column: unit} from the unit row."""
+    import csv
+
+    import pandas as pd
+    with open(path, newline="", errors="replace") as fh:
+        reader = csv.reader(fh)
+        header = next(reader, [])
+        second = next(reader, [])
+    if is_unit_row(second) and len(second) == len(header):
+        df = pd.read_csv(path, header=0, skiprows=[1])
+        df.attrs["units"] = {h.strip(): u.strip()[1:-1] for h, u in zip(header, second)}
+    else:
+        df = pd.read_csv(path)
+        df.attrs["units"] = {}
+    return df

@@ -72,9 +72,9 @@ def evaluated(trials) -> dict:
 
 def check_results_complete(out: Path, labels: set) -> None:
     """Every result file is whole (parses to the end) and lists every evaluated set."""
-    trials = pd.read_csv(out / "trials.csv")
+    trials = pd.read_csv(out / "trials.csv", header=[0, 1]).droplevel(1, axis=1)   # row 2: units
     assert set(trials.loc[trials["status"] == "COMPLETE", "modeset"]) == labels
-    pd.read_csv(out / "pareto.csv")
+    pd.read_csv(out / "pareto.csv", header=[0, 1])
     best = json.loads((out / "best_modeset.json").read_text())
     assert best["label"] in labels
     html = (out / "report.html").read_text()

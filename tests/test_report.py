@@ -14,6 +14,11 @@ from modesel.cli import main
 from test_search import FAKE_ENGINE, make_study
 
 
+def read_table(path) -> pd.DataFrame:
+    """A CSV modesel writes, by the documented one-liner (README: second header row of units)."""
+    return pd.read_csv(path, header=[0, 1]).droplevel(1, axis=1)
+
+
 @pytest.fixture(autouse=True)
 def fake_engine(monkeypatch):
     monkeypatch.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
@@ -34,20 +39,22 @@ def finished(tmp_path_factory):
 
 
 def test_trials_csv_is_ranked_with_the_documented_columns(finished):
-    df = pd.read_csv(finished / "trials.csv")
+    df = read_table(finished / "trials.csv")
     for col in ("rank", "trial", "modeset", "tower_fa_family", "tower_fa_count", "blade_flap_family",
-                "blade_flap_count", "n_dofs", "error", "error_TTDspFA", "error_OoPDefl1", "wall_time_s",
-                "speed", "meets_tolerance", "status", "reason"):
+                "blade_flap_count", "n_dofs", "error_pct", "error_pct_TTDspFA", "error_pct_OoPDefl1",
+                "wall_time_s", "speed_x_real_time", "cost_wall_s_per_sim_s", "meets_tolerance", "status",
+                "reason", "rank_group"):
         assert col in df.columns, col
     assert list(df["rank"]) == list(range(1, len(df) + 1))
     assert len(df) == 25 and df["modeset"].is_unique          # one row per evaluated set
     meets = df[df["meets_tolerance"]]
     assert meets["rank"].max() < df[~df["meets_tolerance"]]["rank"].min()
-    assert list(meets["cost"]) == sorted(meets["cost"])
+    assert list(meets["cost_wall_s_per_sim_s"]) == sorted(meets["cost_wall_s_per_sim_s"])
     rest = df[~df["meets_tolerance"]]
-    assert list(rest["error"]) == sorted(rest["error"])
+    assert list(rest["error_pct"]) == sorted(rest["error_pct"])
+    assert set(meets["rank_group"]) == {"meets tolerance: cheapest first (cost, DOFs, error)"}
     # the error is the worst channel
-    np.testing.assert_allclose(df["error"], df[["error_TTDspFA", "error_OoPDefl1"]].max(axis=1))
+    np.testing.assert_allclose(df["error_pct"], df[["error_pct_TTDspFA", "error_pct_OoPDefl1"]].max(axis=1))
     # labels are ModeSet.label() and agree with the family/count columns
     row = df.iloc[0]
     assert row["modeset"] == (f"tower_fa={row['tower_fa_family']}:{row['tower_fa_count']} "
@@ -55,22 +62,23 @@ def test_trials_csv_is_ranked_with_the_documented_columns(finished):
 
 
 def test_pareto_csv_is_the_non_dominated_set(finished):
-    trials = pd.read_csv(finished / "trials.csv")
-    front = pd.read_csv(finished / "pareto.csv")
-    assert list(front["cost"]) == sorted(front["cost"])
-    assert list(front["error"]) == sorted(front["error"], reverse=True)
+    trials = read_table(finished / "trials.csv")
+    front = read_table(finished / "pareto.csv")
+    assert list(front["rank"]) == list(range(1, len(front) + 1))
+    assert list(front["cost_wall_s_per_sim_s"]) == sorted(front["cost_wall_s_per_sim_s"])
+    assert list(front["error_pct"]) == sorted(front["error_pct"], reverse=True)
     for _, r in trials.iterrows():
-        dominated = ((front["cost"] <= r["cost"]) & (front["error"] <= r["error"])).any()
+        dominated = ((front["cost_wall_s_per_sim_s"] <= r["cost_wall_s_per_sim_s"]) & (front["error_pct"] <= r["error_pct"])).any()
         assert dominated
     for _, f in front.iterrows():
-        better = trials[(trials["cost"] <= f["cost"]) & (trials["error"] < f["error"])]
+        better = trials[(trials["cost_wall_s_per_sim_s"] <= f["cost_wall_s_per_sim_s"]) & (trials["error_pct"] < f["error_pct"])]
         assert better.empty
 
 
 def test_best_modeset_is_the_cheapest_meeting_tolerance(finished):
     best = json.loads((finished / "best_modeset.json").read_text())
-    trials = pd.read_csv(finished / "trials.csv")
-    meets = trials[trials["meets_tolerance"]].sort_values(["cost", "n_dofs", "error"])
+    trials = read_table(finished / "trials.csv")
+    meets = trials[trials["meets_tolerance"]].sort_values(["cost_wall_s_per_sim_s", "n_dofs", "error_pct"])
     assert best["selection"] == "cheapest set meeting the tolerance"
     assert best["label"] == meets.iloc[0]["modeset"] and best["trial"] == meets.iloc[0]["trial"]
     assert best["meets_tolerance"] is True and best["error"] <= best["tolerance"] == 0.035
@@ -83,26 +91,58 @@ def test_report_is_self_contained_and_states_each_tolerance(finished):
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", text)
     assert "http" not in text                                  # not even namespace URIs
     assert "<script" not in text and "<link" not in text
-    trials = pd.read_csv(finished / "trials.csv")
-    cheapest = trials[trials["error"] <= 0.035].sort_values(["cost", "n_dofs", "error"]).iloc[0]
-    tight = trials[trials["error"] <= 0.01].sort_values(["cost", "n_dofs", "error"]).iloc[0]
+    trials = read_table(finished / "trials.csv")
+    order = ["cost_wall_s_per_sim_s", "n_dofs", "error_pct"]
+    cheapest = trials[trials["error_pct"] <= 3.5].sort_values(order).iloc[0]
+    tight = trials[trials["error_pct"] <= 1.0].sort_values(order).iloc[0]
     per_s = cheapest["wall_time_s"] / cheapest["simulated_time_s"]
     assert (f"3.5 % needs {cheapest['modeset']} ({cheapest['n_dofs']} DOFs, {per_s:.3g} s per simulated s)."
             in text)
-    ratio = tight["cost"] / cheapest["cost"]
+    ratio = tight["cost_wall_s_per_sim_s"] / cheapest["cost_wall_s_per_sim_s"]
     assert re.search(rf"1 % needs {re.escape(tight['modeset'])} \({tight['n_dofs']} DOFs, [0-9.e-]+ s per "
                      rf"simulated s\) at {ratio:.3g} times the cost\.", text)
-    assert text.count("<svg") == 4         # Pareto, history, one scene's series, shapes
+    assert text.count("<svg") == 5         # Pareto, history, one scene's series, its error over time, shapes
+
+
+def test_report_axes_units_layout_and_pareto_titles(finished):
+    """The issue's check: every axis label of a physical channel carries a unit,
+    no table is wider than its container, nothing external, every Pareto point
+    identifiable, legends outside the data."""
+    text = (finished / "report.html").read_text()
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", text)
+    # every reference is to an element of the page itself
+    refs = re.findall(r"url\(([^)]*)\)", text) + re.findall(r"""(?:xlink:)?href\s*=\s*["']([^"']*)""", text)
+    assert refs and all(r.strip("'\" ").startswith("#") for r in refs), sorted(set(refs))[:5]
+    # tables sit in a box that scrolls sideways; the page is at most 1300 px wide
+    style = re.search(r"<style>(.*?)</style>", text, re.S).group(1)
+    assert re.search(r"\.scroll\{[^}]*max-width:100%[^}]*overflow-x:auto", style)
+    assert text.count("<table") == text.count("<div class='scroll'><table")
+    assert "max-width:1300px" in style
+    # axis labels (svg.fonttype none: <text> elements) of every channel carry its unit
+    labels = re.findall(r"<text[^>]*>([^<]*)</text>", text)
+    from modesel.model.outputs import channel_unit
+    for ch in ("TTDspFA", "OoPDefl1"):
+        assert f"{ch} [{channel_unit(ch)}]" in labels, (ch, labels[:40])
+    assert "time [s]" in labels and any(lab.startswith("error [%]") for lab in labels)
+    assert "cost [wall s per simulated s]" in labels and "error over time" in " ".join(labels)
+    # every completed set is a hoverable point with its trial number and set
+    trials = read_table(finished / "trials.csv")
+    titles = re.findall(r"<title>#(\d+) (.+?): error ", text)
+    done = trials[trials["status"] == "COMPLETE"]
+    assert {int(n) for n, _ in titles} == set(done["trial"])
+    assert all(dict(zip(done["trial"], done["modeset"]))[int(n)] == label for n, label in titles)
+    # percent everywhere: no level written as a fraction
+    assert "cheapest within 3.5 %" in text and "within 0.035" not in text
 
 
 def test_report_rerenders_from_storage(finished, capsys):
-    before = pd.read_csv(finished / "trials.csv")
+    before = read_table(finished / "trials.csv")
     (finished / "trials.csv").unlink()
     (finished / "report.html").unlink()
     for path in (finished / "timeseries").glob("trial_*.csv"):
         path.unlink()
     assert main(["report", str(finished)]) == 0
-    pd.testing.assert_frame_equal(pd.read_csv(finished / "trials.csv"), before)
+    pd.testing.assert_frame_equal(read_table(finished / "trials.csv"), before)
     assert (finished / "report.html").exists()
     # the featured sets were simulated again for the overlays
     assert "simulating again trials" in capsys.readouterr().err
@@ -117,7 +157,7 @@ def test_failed_trials_and_unmet_levels_in_the_report(tmp_path, capsys):
     assert "0.0000001 % is not met by any of the" in out or "1e-07 % is not met by any of the" in out
     text = (tmp_path / "out/report.html").read_text()
     assert "Failed trials" in text and "diverged at t=3.25 s" in text
-    trials = pd.read_csv(tmp_path / "out/trials.csv")
+    trials = read_table(tmp_path / "out/trials.csv")
     failed = trials[trials["status"] == "FAIL"]
     assert not failed.empty and failed["reason"].str.contains("beyond bounds").all()
     assert failed["rank"].min() > trials[trials["status"] == "COMPLETE"]["rank"].max()
@@ -128,8 +168,8 @@ def test_run_twice_resumes(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(study), "--out", str(out)]) == 0
     assert main(["run", str(study), "--out", str(out), "--seed", "3"]) == 0
-    assert "5 new trials" in capsys.readouterr().out
-    assert len(pd.read_csv(out / "trials.csv")) == 10
+    assert "this run evaluated 5 new mode sets" in capsys.readouterr().out
+    assert len(read_table(out / "trials.csv")) == 10
 
 
 def test_worker_with_sqlite_then_report(tmp_path, capsys):
@@ -137,15 +177,15 @@ def test_worker_with_sqlite_then_report(tmp_path, capsys):
     url = f"sqlite:///{tmp_path / 'shared.db'}"
     assert main(["worker", str(study), "--storage", url]) == 0
     assert main(["worker", str(study), "--storage", url, "--n-trials", "2"]) == 0
-    assert "2 trials run by this worker" in capsys.readouterr().out
+    assert "this worker evaluated 2 new mode sets" in capsys.readouterr().out
     out = tmp_path / "out"
     assert main(["run", str(study), "--out", str(out), "--storage", url, "--n-trials", "1"]) == 0
-    trials = pd.read_csv(out / "trials.csv")
+    trials = read_table(out / "trials.csv")
     assert len(trials) == 6
     assert json.loads((out / "run.json").read_text())["storage"] == url
     # the workers kept no time series: the featured sets were simulated again for the report
     assert "simulating again trials" in capsys.readouterr().err
-    assert (out / "report.html").read_text().count("<svg") == 4
+    assert (out / "report.html").read_text().count("<svg") == 5
 
 
 @pytest.mark.parametrize("make_args, pattern", [
@@ -175,3 +215,38 @@ def test_cli_unknown_key_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "budget.n_trails: unknown key 'n_trails' (did you mean 'n_trials'?)" in err
     assert err.count("\n") == 1
+
+
+def test_campbell_diagram_in_the_report_of_a_rotating_scene(finished, tmp_path):
+    """The chosen set's Campbell diagram is drawn when the scene turns a rotor
+    (here the paper's rotating blade at 12.1 rpm, frequencies against rpm)."""
+    from pathlib import Path
+
+    from modesel.simulation.api import effective_modeset, load_scene
+    from modesel.study import report
+    from modesel.study.results import read_run_info, write_results
+    from modesel.study.search import open_study
+    from modesel.study.spec import parse_study
+    info = read_run_info(finished)
+    study = parse_study(info["study_toml"], info["study_file"])
+    summary = write_results(tmp_path, open_study(study, info["storage"], create=False), study)
+    scene = load_scene(Path(__file__).resolve().parents[1] / "studies/scenes/paper_rotating_blade.toml")
+    assert report.has_rotor(scene) and abs(report.scene_rpm(scene) - 12.1) < 1e-9
+    notes = []
+    page = report.render(finished, study, summary, [], effective_modeset(scene, None), scene, notes, {})
+    assert "<h2>Campbell diagram</h2>" in page, notes
+    campbell = page[page.index("<div class='fig campbell'>"):]
+    campbell = campbell[:campbell.index("</svg>")]
+    texts = re.findall(r"<text[^>]*>([^<]*)</text>", campbell)
+    assert {"1P", "3P", "6P", "rotor speed [rpm]", "frequency [Hz]"} <= {t.strip() for t in texts}, texts
+
+
+def test_linearize_plot_writes_a_campbell_svg(tmp_path, capsys):
+    from pathlib import Path
+    scene = Path(__file__).resolve().parents[1] / "studies/scenes/paper_rotating_blade.toml"
+    out = tmp_path / "campbell.svg"
+    assert main(["linearize", str(scene), "--rpm", "0,6,12.1", "--plot", str(out)]) == 0
+    svg = out.read_text()
+    assert svg.startswith("<svg") and "rotor speed [rpm]" in svg and "6P" in svg and "http" not in svg
+    assert main(["linearize", str(scene), "--plot", str(out)]) == 2
+    assert "needs rotor speeds" in capsys.readouterr().err

@@ -1,17 +1,19 @@
-"""`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json]`
+"""`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json] [--plot OUT.svg]`
 
 Natural frequencies [Hz], damping ratios and labels (the most
 participating coordinate, unique per mode) of the scene linearised about its
 initial state (zero elastic deflection); with --rpm the rotor turns at each
-given constant speed (a Campbell sweep), and the cyclic rotor modes are
-marked forward or backward whirl.
+given constant speed (a Campbell sweep), the cyclic rotor modes are marked
+forward or backward whirl and the symmetric ones collective; --plot draws
+the Campbell diagram (frequency [Hz] versus rotor speed [rpm], 1P/3P/6P
+lines) as a self-contained SVG, the one in report.html.
 """
 from __future__ import annotations
 
 import json
 import math
 
-from modesel.commands._common import load_modeset
+from modesel.commands._common import atomic_write_text, load_modeset
 from modesel.errors import ModeselError
 
 
@@ -22,6 +24,7 @@ def register(sub):
     p.add_argument("--modeset", help="mode-set JSON overriding the scene's shapes")
     p.add_argument("--rpm", help="comma-separated rotor speeds [rpm] for a Campbell sweep")
     p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--plot", metavar="OUT.svg", help="write the Campbell diagram (needs --rpm) as SVG")
     p.set_defaults(func=run)
 
 
@@ -37,13 +40,22 @@ def _parse_rpm(text):
 
 def run(args) -> int:
     from modesel.simulation.api import linearize_scene, load_scene
+    from modesel.study.report import mode_kind
     scene = load_scene(args.scene)
     ms = load_modeset(args.modeset)
+    if args.plot and not args.rpm:
+        raise ModeselError("a Campbell diagram needs rotor speeds: add --rpm, e.g. --rpm 0,6,12.1",
+                           field="--plot")
     speeds = _parse_rpm(args.rpm) if args.rpm else [None]
-    results = []
+    results, sweep = [], []
     for rpm in speeds:
         modes, _ = linearize_scene(scene, ms, rpm=rpm)
-        results.append((rpm, [m.as_dict() for m in modes]))
+        sweep.append((rpm, modes))
+        results.append((rpm, [dict(m.as_dict(), kind=mode_kind(m)[1]) for m in modes]))
+    if args.plot:
+        from modesel.study.report import campbell_figure
+        svg = campbell_figure(sweep, f"{scene.name}" + (f" ({ms.label()})" if ms else ""))
+        atomic_write_text(args.plot, svg + "\n")
     if args.json:
         if args.rpm:
             out = {"campbell": [{"rpm": rpm, "modes": modes} for rpm, modes in results]}
@@ -56,6 +68,8 @@ def run(args) -> int:
             print(f"rotor speed {rpm:g} rpm")
         print(f"{'#':>3} {'frequency [Hz]':>15} {'damping [-]':>12}  label")
         for i, m in enumerate(modes, 1):
-            whirl = f"  ({m['whirl']} whirl)" if "whirl" in m else ""
-            print(f"{i:>3} {m['frequency_hz']:>15.5f} {m['damping_ratio']:>12.5f}  {m['label']}{whirl}")
+            kind = f"  ({m['kind']})" if m["kind"] else ""
+            print(f"{i:>3} {m['frequency_hz']:>15.5f} {m['damping_ratio']:>12.5f}  {m['label']}{kind}")
+    if args.plot:
+        print(f"Campbell diagram -> {args.plot}")
     return 0

@@ -10,7 +10,12 @@ queued again, and --n-trials more are run. Ctrl-C (SIGINT) or SIGTERM stops
 the study gracefully: the finished trials stay in the storage and their
 results (trials.csv, pareto.csv, best_modeset.json, report.html) are written
 before the command exits (code 130 or 143) with one line.
+
+A progress bar on stderr (trials done of --n-trials, best error so far in %,
+failed trials, ETA) is drawn when stderr is a terminal; --quiet turns it and
+the first-run compile notice off.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,12 +25,17 @@ from pathlib import Path
 from modesel.commands._common import add_search_options, say
 from modesel.errors import Interrupted, ModeselError
 
+EPILOG = ("The study file (every table and key, type, default and unit, the metrics with "
+          "their formulas and the families with their parameter ranges) is described in "
+          "docs/study-file.md.")
+
 
 def register(subparsers):
     p = subparsers.add_parser(
         "run", help="search the cheapest mode set meeting a tolerance",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("study", help="study file (TOML)")
+        description=__doc__, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("study", help="study file (TOML; reference: docs/study-file.md)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, no compile notice")
     p.add_argument("--out", required=True, help="output folder (created; reused to resume)")
     add_search_options(p, n_trials="trials to run now (default [budget].n_trials)",
                        n_jobs="parallel worker processes", seed="sampler seed")
@@ -60,6 +70,19 @@ def _interrupted(exc: KeyboardInterrupt, out: Path, engine) -> Interrupted:
                        signal_name=signal_name)
 
 
+def trial_counts(outcome, ranked) -> str:
+    """One sentence counting the trials once: distinct sets of this run and of the study."""
+    n_sets = len(ranked)
+    n_failed = int((ranked["status"] != "COMPLETE").sum()) if n_sets else 0
+    text = f"this run evaluated {outcome.n_new} new mode sets"
+    if outcome.n_repeats:
+        text += f" (and served {outcome.n_repeats} repeated proposals from the record)"
+    if outcome.requeued:
+        text += f", {outcome.requeued} interrupted trials re-queued"
+    total = len(outcome.optuna_study.get_trials(deepcopy=False))
+    return text + f"; trials: {total} in the study, {n_sets} distinct sets ({n_failed} failed)"
+
+
 def run(args, engine=None) -> int:
     from modesel.study.results import refresh, write_run_info
     from modesel.study.search import default_storage, mask_url, run_search
@@ -74,15 +97,12 @@ def run(args, engine=None) -> int:
     try:
         outcome = run_search(study, out_dir=out, storage=storage, n_trials=args.n_trials,
                              timeout=args.timeout, n_jobs=args.n_jobs, seed=args.seed, engine=engine,
-                             log=say)
+                             log=say, progress=False if args.quiet else None)
     except KeyboardInterrupt as exc:   # keep what was done: results of the finished trials
         raise _interrupted(exc, out, engine) from None
     write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
     summary = refresh(out, engine=engine, log=say)
-    total = len(outcome.optuna_study.get_trials(deepcopy=False))
-    print(f"{study.name}: {outcome.n_new} new trials ({total} in the study"
-          + (f", {outcome.requeued} interrupted re-queued" if outcome.requeued else "")
-          + f"); storage {mask_url(storage)}")
+    print(f"{study.name}: {trial_counts(outcome, summary['ranked'])}; storage {mask_url(storage)}")
     for name, ref in outcome.references.items():
         if ref.info.get("kind") == "internal":
             counts = " ".join(f"{f}={ref.info['family']}:{n}" for f, n in ref.info["counts"].items())

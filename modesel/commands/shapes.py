@@ -84,6 +84,35 @@ def compute(turbine_name, field: str, family: str, count, params=None, rpm=0.0):
     return result, turbine, context, dict(checked.params)
 
 
+def frequencies_with_top_mass(result, top_mass: float):
+    """Uncoupled frequencies [Hz] of a tower bending field with the top mass
+    as a point mass at the tip (its inertia added: M + m_top d d^T with d the
+    tip deflections; its rotary inertia left out), or None for other fields
+    or without top mass. `result.frequencies_hz` leave the top-mass inertia
+    out (only its weight, through the geometric stiffness)."""
+    import scipy.linalg
+    if top_mass <= 0 or result.field not in ("tower_fa", "tower_ss"):
+        return None
+    d = np.asarray(result.tip_deflection, float)
+    stiffness = (np.asarray(result.stiffness) + result.geometric_stiffness["gravity_top_mass"]
+                 + result.geometric_stiffness["gravity_self_weight"])
+    eig = scipy.linalg.eigh(stiffness, np.asarray(result.mass) + top_mass * np.outer(d, d), eigvals_only=True)
+    return np.sign(eig) * np.sqrt(np.abs(eig)) / (2.0 * np.pi)
+
+
+def boundary_conditions(result, top_mass: float) -> str:
+    """What the printed frequencies assume, in words."""
+    if result.field.startswith("tower"):
+        text = "tower clamped at the base, free at the top"
+        if top_mass > 0:
+            text += (f"; 'freq' leaves the {top_mass:.6g} kg top mass out of the inertia (only its weight "
+                     "acts, through the geometric stiffness)")
+            if result.field != "tower_torsion":
+                text += "; 'freq+top' adds it as a point mass at the tip (no rotary inertia)"
+        return text
+    return "blade clamped at the root, free at the tip, centrifugal stiffening at the given rotor speed"
+
+
 def as_dict(result, context, rpm: float, params=None) -> dict:
     """The JSON object printed by `modesel shapes --json`."""
     def listed(a):
@@ -99,6 +128,9 @@ def as_dict(result, context, rpm: float, params=None) -> dict:
         "spin_softening_per_omega2": listed(result.spin_softening_per_omega2),
         "tip_deflection": listed(result.tip_deflection), "tip_slope": listed(result.tip_slope),
         "frequencies_hz": listed(result.frequencies_hz),
+        "frequencies_with_top_mass_hz": (None if (f := frequencies_with_top_mass(result, context.tip_mass)) is None
+                                         else listed(f)),
+        "boundary_conditions": boundary_conditions(result, context.tip_mass),
         "condition_number": float(result.condition_number),
         "orthonormalised": bool(result.orthonormalised),
         "transform": listed(result.transform),
@@ -119,9 +151,14 @@ def run(args) -> int:
           f"{turbine.gravity:g} m/s^2" + (f", rotor speed {rpm:g} rpm" if result.field.startswith("blade") else ""))
     print(f"  mass-matrix condition number {result.condition_number:.3e}"
           + (" (basis mass-orthonormalised)" if result.orthonormalised else ""))
-    print(f"  {'mode':>4} {'freq [Hz]':>11} {'M_ii':>12} {'K_ii':>12} {'tip':>9} {'slope[1/m]':>11}")
+    with_top = frequencies_with_top_mass(result, context.tip_mass)
+    print(f"  uncoupled frequencies: {boundary_conditions(result, context.tip_mass)}")
+    print(f"  {'mode':>4} {'freq [Hz]':>11}" + (f" {'freq+top [Hz]':>13}" if with_top is not None else "")
+          + f" {'M_ii [kg]':>12} {'K_ii [N/m]':>12} {'tip [-]':>9} {'slope[1/m]':>11}")
     for i in range(result.count):
-        print(f"  {i + 1:>4} {result.frequencies_hz[i]:>11.5g} {result.mass[i, i]:>12.5g} "
+        print(f"  {i + 1:>4} {result.frequencies_hz[i]:>11.5g}"
+              + (f" {with_top[i]:>13.5g}" if with_top is not None else "")
+              + f" {result.mass[i, i]:>12.5g} "
               f"{result.stiffness[i, i]:>12.5g} {result.tip_deflection[i]:>9.4g} {result.tip_slope[i]:>11.5g}")
     if result.count > FULL_MATRICES_UP_TO:
         print(f"  (matrices of more than {FULL_MATRICES_UP_TO} modes: use --json)")

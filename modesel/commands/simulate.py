@@ -1,9 +1,16 @@
 """`modesel simulate SCENE [--modeset MS.json] [--tmax T] [--dt DT] --out OUT.csv`
 
 SCENE is a TOML scene or an ElastoDyn/OpenFAST main file. The CSV has a
-`Time` column [s] and OpenFAST-named channels.
+`Time` column and OpenFAST-named channels, with a second header row of units
+as OpenFAST text outputs (`Time,TTDspFA` then `(s),(m)`; read it with
+`pandas.read_csv(OUT, header=[0, 1])`). The command says which DOFs and
+effects ran and warns about settings that act on nothing (e.g. a wind with
+neither aero nor tower drag on). A run longer than 2 s shows a progress line
+on stderr (simulated time, x real time, ETA) when stderr is a terminal.
 """
 from __future__ import annotations
+
+import sys
 
 from modesel.commands._common import atomic_write_text, load_modeset, positive_float
 
@@ -15,16 +22,58 @@ def register(sub):
     p.add_argument("--modeset", help="mode-set JSON overriding the scene's shapes")
     p.add_argument("--tmax", type=positive_float, help="simulated time [s] (default: the scene's)")
     p.add_argument("--dt", type=positive_float, help="output step [s] (default: the scene's)")
-    p.add_argument("--out", required=True, help="output CSV file")
+    p.add_argument("--out", required=True, help="output CSV file (second header row: units)")
     p.set_defaults(func=run)
 
 
+def effects_in_scene(scene, dof_names) -> tuple[list, list, list]:
+    """(effects evaluated, system flags on, warnings about settings that act
+    on nothing) of `scene` with free coordinates `dof_names`; the same
+    selection as the simulation (`modesel.model.effects.select`)."""
+    from modesel.model.effects import DEFAULT_ON, FLAGS, MODULES, effect_class
+    on = []
+    for name in MODULES:
+        value = scene.effects.get(name)
+        if value is False or (value is None and name not in DEFAULT_ON):
+            continue
+        if effect_class(name).applies(scene):
+            on.append(name)
+    flags = [f for f in FLAGS if scene.effects.get(f, f != "elastodyn_nodes")]
+    warnings = []
+    if "wind" in on and not {"aero", "tower_drag"} & set(on):
+        warnings.append("[effects.wind] is set but neither aero nor tower_drag is on: the wind loads nothing")
+    for name in ("aero", "tower_drag"):
+        if name in on and "wind" not in on:
+            warnings.append(f"{name} is on without [effects.wind]: it acts in still air")
+    if "generator" in on and "GeAz" not in dof_names:
+        warnings.append("generator torque is on but GeAz is not free: it acts on nothing")
+    if "drivetrain" in on and "DrTr" not in dof_names and "drivetrain" in scene.effects:
+        warnings.append("[effects.drivetrain] is set but DrTr is not free: it acts on nothing")
+    for name, value in scene.effects.items():
+        if name in MODULES and value not in (None, False) and name not in on:
+            warnings.append(f"[effects] {name} is set but does not apply to this scene")
+    return on, flags, warnings
+
+
 def run(args) -> int:
+    from modesel.files import unit_csv_text
     from modesel.simulation.api import load_scene, simulate
+    from modesel.study.search.progress import SimulationProgress, compile_notice, speed_text
     scene = load_scene(args.scene)
-    result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt)
-    atomic_write_text(args.out, result.outputs.to_csv(index=False, float_format="%.9g"))
-    print(f"{scene.name}: {result.n_dofs} DOFs ({', '.join(result.dof_names)}), "
-          f"{result.simulated_time_s:g} s simulated in {result.wall_time_s:.3f} s "
-          f"({result.speed:.0f}x real time, {result.method}) -> {args.out}")
+    compile_notice()
+    line = SimulationProgress(f"{scene.name}: ")
+    try:
+        result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line)
+    finally:
+        line.close()
+    outputs = result.outputs
+    units = dict(outputs.attrs.get("units", {}), Time="s")
+    atomic_write_text(args.out, unit_csv_text(outputs, {c: units.get(c, "?") for c in outputs.columns}))
+    on, flags, warnings = effects_in_scene(scene, result.dof_names)
+    print(f"{scene.name}: {result.n_dofs} DOFs ({', '.join(result.dof_names)})")
+    print(f"  effects evaluated: {', '.join(on) or 'none'}; system flags on: {', '.join(flags) or 'none'}")
+    print(f"  {result.simulated_time_s:g} s simulated in {result.wall_time_s:.3g} s "
+          f"({speed_text(result.simulated_time_s, result.wall_time_s)}, {result.method}) -> {args.out}")
+    for text in warnings:
+        print(f"modesel: warning: {scene.name}: {text}", file=sys.stderr)
     return 0

@@ -25,6 +25,7 @@ def register(subparsers):
     p.add_argument("--storage", required=True, help="SQLAlchemy URL, e.g. postgresql://user@host/db")
     add_search_options(p, n_trials="trials to run (default [budget].n_trials)",
                        n_jobs="parallel processes on this machine", seed="sampler seed (default: the study's)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, no compile notice")
     p.add_argument("--cache", help="folder for the internal reference cache "
                                    "(default: .modesel/<study name> next to the study file)")
     p.set_defaults(func=run)
@@ -40,8 +41,9 @@ def run(args, engine=None) -> int:
     salt = zlib.crc32(f"{socket.gethostname()}:{os.getpid()}".encode())
     outcome = run_search(study, storage=args.storage, n_trials=args.n_trials, timeout=args.timeout,
                          n_jobs=args.n_jobs, seed=args.seed, engine=engine, cache_dir=cache, log=say,
-                         salt=salt)
+                         salt=salt, progress=False if args.quiet else None)
     trials = outcome.optuna_study.get_trials(deepcopy=False)
-    print(f"{study.name}: {outcome.n_new} trials run by this worker, {len(trials)} in the study "
-          f"at {mask_url(outcome.storage_url)}")
+    print(f"{study.name}: this worker evaluated {outcome.n_new} new mode sets"
+          + (f" (and served {outcome.n_repeats} repeated proposals from the record)" if outcome.n_repeats else "")
+          + f"; the study holds {len(trials)} trials at {mask_url(outcome.storage_url)}")
     return 0

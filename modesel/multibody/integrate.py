@@ -97,12 +97,15 @@ def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tupl
 
 
 def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=None, max_step=np.inf,
-              bounds=None, stiffness_ratio=float("nan")) -> Integration:
+              bounds=None, stiffness_ratio=float("nan"), progress=None) -> Integration:
     """Integrate from (q0, qd0) over [0, tmax] [s], output every dt [s],
     with the named `method` (one of `METHODS`).
 
     rhs_M_F(t, q, qd) -> (M, F), or a `CompiledRHS`. bounds: (n,) maximum
-    |q| per coordinate (inf = unbounded) used for divergence detection."""
+    |q| per coordinate (inf = unbounded) used for divergence detection.
+    progress: optional progress(t, tmax) called every 64 right-hand-side
+    evaluations of the scipy methods (compiled-DOP853 runs in the kernel and
+    reports nothing until it returns)."""
     n = len(q0)
     t_eval = np.arange(0.0, tmax + 0.5 * dt, dt)
     t_eval = t_eval[t_eval <= tmax + 1e-12]
@@ -133,6 +136,8 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
 
     def f(t, x):
         counter[0] += 1
+        if progress is not None and counter[0] % 64 == 0:
+            progress(t, tmax)
         q, qd = x[:n], x[n:]
         if not np.all(np.isfinite(x)):
             raise _Diverged("non-finite state", t)

@@ -40,11 +40,12 @@ def divergence_bounds(built: Built) -> np.ndarray:
 
 
 def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None = None,
-             dt: float | None = None) -> SimulationResult:
+             dt: float | None = None, progress=None) -> SimulationResult:
     """Integrate `scene` (with `modeset` overriding its shapes) over tmax [s]
     with outputs every dt [s] (default: the scene's) and return outputs.
     The integrator is chosen by the stiffness ratio of the scene linearised
-    at rest (`integrate.choose_method`), after the static stability check."""
+    at rest (`integrate.choose_method`), after the static stability check.
+    progress: optional progress(t, tmax) hook of the integrator."""
     tmax = scene.tmax if tmax is None else float(tmax)
     dt = scene.dt if dt is None else float(dt)
     if tmax <= 0 or dt <= 0:
@@ -71,7 +72,7 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,
                           rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
                           max_step=float(scene.solver.get("max_step", np.inf)), bounds=divergence_bounds(built),
-                          stiffness_ratio=ratio)
+                          stiffness_ratio=ratio, progress=progress)
     except SimulationDiverged as exc:     # name the coordinate and the scene
         reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None

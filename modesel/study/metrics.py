@@ -159,15 +159,23 @@ class Metric:
     name: str
     function: Callable
     description: str
+    formula: str = ""     # as written in docs/study-file.md (R reference, S simulation, <.> time average)
 
 
 METRICS = {m.name: m for m in (
-    Metric("nrmse", nrmse, "RMS of the difference / reference range (max - min)"),
-    Metric("max_abs", max_abs, "largest absolute difference / reference range"),
-    Metric("mean", mean_error, "relative error of the time average"),
-    Metric("amplitude", amplitude_error, "relative error of the standard deviation (amplitude)"),
-    Metric("frequency", frequency_error, "relative error of the dominant spectral peak"),
-    Metric("r2", one_minus_r2, "1 - coefficient of determination R^2"),
+    Metric("nrmse", nrmse, "RMS of the difference / reference range (max - min)",
+           formula="sqrt(<(S - R)^2>) / (max R - min R)"),
+    Metric("max_abs", max_abs, "largest absolute difference / reference range",
+           formula="max |S - R| / (max R - min R)"),
+    Metric("mean", mean_error, "relative error of the time average",
+           formula="|<S> - <R>| / |<R>|"),
+    Metric("amplitude", amplitude_error, "relative error of the standard deviation (amplitude)",
+           formula="|std S - std R| / std R, std x = sqrt(<(x - <x>)^2>)"),
+    Metric("frequency", frequency_error, "relative error of the dominant spectral peak",
+           formula="|f_S - f_R| / f_R, f = peak of the Hann-windowed, zero-padded spectrum "
+                   "(parabolic refinement)"),
+    Metric("r2", one_minus_r2, "1 - coefficient of determination R^2",
+           formula="sum (S - R)^2 / sum (R - <R>)^2"),
 )}
 
 

@@ -135,6 +135,7 @@ def best_modeset(ranked: pd.DataFrame, study, trials_by_number: dict) -> dict:
     data.update(study=study.name, selection=selection, label=row["modeset"], trial=int(row["trial"]),
                 meets_tolerance=bool(row["meets_tolerance"]), tolerance=study.compare.tolerance,
                 metric=study.compare.metric, error=float(row["error"]),
+                error_pct=100.0 * float(row["error"]), tolerance_pct=100.0 * study.compare.tolerance,
                 worst_channel=row["worst_channel"], errors=dict(attrs["errors"]),
                 n_dofs=None if pd.isna(row["n_dofs"]) else int(row["n_dofs"]),
                 wall_time_s=float(row["wall_time_s"]), speed=float(row["speed"]),
@@ -148,8 +149,48 @@ def featured_trials(ranked: pd.DataFrame, study) -> dict:
     for level in study.compare.levels:
         row = choose(ranked, level)
         if row is not None:
-            out[f"cheapest within {level:.3g}"] = int(row["trial"])
+            out[f"cheapest within {100.0 * level:.3g} %"] = int(row["trial"])
     row = most_accurate(ranked)
     if row is not None:
         out["most accurate"] = int(row["trial"])
     return out
+
+
+# --------------------------------------------------------------------------- files (with units)
+
+RANKING_GROUPS = ("meets tolerance: cheapest first (cost, DOFs, error)",
+                  "misses tolerance: most accurate first (error, cost)",
+                  "failed: by trial number")
+
+
+def cost_column(study) -> tuple[str, str]:
+    """(file column name, unit) of the cost objective of `study`."""
+    if study.search.cost == "dofs":
+        return "cost_n_dofs", "-"
+    return "cost_wall_s_per_sim_s", "s/s"
+
+
+def file_table(df: pd.DataFrame, study, groups: bool = True) -> tuple[pd.DataFrame, dict]:
+    """The table as written to trials.csv/pareto.csv and its units: errors in
+    % (``error_pct``, ``error_pct_<channel>``), speed and cost named with their
+    units, with `groups` a `rank_group` column after `rank` saying how the rows
+    are ranked, `duplicate_of` dropped."""
+    if df.empty:
+        return df, {}
+    out = df.drop(columns=["duplicate_of"], errors="ignore").copy()
+    cost_name, cost_unit = cost_column(study)
+    channels = list(study.compare.channels)
+    rename = {"error": "error_pct", "speed": "speed_x_real_time", "cost": cost_name}
+    rename.update({f"error_{ch}": f"error_pct_{ch}" for ch in channels})
+    for col in ["error"] + [f"error_{ch}" for ch in channels]:
+        if col in out:
+            out[col] = 100.0 * pd.to_numeric(out[col], errors="coerce")
+    out = out.rename(columns=rename)
+    if groups and "rank" in out:
+        group = np.where(out["status"] != "COMPLETE", 2, np.where(out["meets_tolerance"], 0, 1))
+        out.insert(1, "rank_group", [RANKING_GROUPS[g] for g in group])
+    units = {c: "-" for c in out.columns}
+    units.update({c: "%" for c in out.columns if c.startswith("error_pct")})
+    units.update(wall_time_s="s", simulated_time_s="s", speed_x_real_time="sim s/wall s")
+    units[cost_name] = cost_unit
+    return out, units

@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from modesel.errors import ModeselError, unknown_name
+from modesel.files import atomic_write_text, read_unit_csv, unit_csv_text
 from modesel.modeset import FIELDS, FieldModes, ModeSet
 
 CACHE_VERSION = 1
@@ -83,7 +84,7 @@ _HEADER_UNIT = re.compile(r"^\s*(?P<name>[^\[\(]+?)\s*[\[\(](?P<unit>[^\]\)]*)[\
 
 def _read_csv(path: Path) -> pd.DataFrame:
     try:
-        df = pd.read_csv(path)
+        df = read_unit_csv(path)        # a second header row of units "(s),(m)" is read as units
     except FileNotFoundError:
         raise ModeselError("reference file not found", file=str(path)) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as exc:
@@ -105,6 +106,7 @@ def _read_csv(path: Path) -> pd.DataFrame:
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise ModeselError("column appears twice", file=str(path), field=dup)
+    units.update(df.attrs.get("units", {}))
     df.columns = names
     df.attrs["units"] = units
     return df
@@ -305,7 +307,7 @@ def internal_reference(scene, channels, simulate, *, family: str = "fem", tolera
         cache = Path(cache_dir) / f"internal_{re.sub(r'[^A-Za-z0-9_.-]', '_', name)}_{key}"
         csv, meta = cache.with_suffix(".csv"), cache.with_suffix(".json")
         if csv.exists() and meta.exists():
-            df = pd.read_csv(csv)
+            df = read_unit_csv(csv)
             info = json.loads(meta.read_text())
             return Reference(name, "internal", df["Time"].to_numpy(float),
                              {ch: df[ch].to_numpy(float) for ch in channels}, {}, info,
@@ -348,8 +350,10 @@ def internal_reference(scene, channels, simulate, *, family: str = "fem", tolera
     ref = Reference(name, "internal", current.time, dict(current.sim), {}, info,
                     None if window is None else tuple(window))
     if cache is not None:
-        from modesel.files import atomic_write_text
+        from modesel.study.timeseries import series_units
         Path(cache_dir).mkdir(parents=True, exist_ok=True)
-        atomic_write_text(cache.with_suffix(".csv"), ref.frame().to_csv(index=False, float_format="%.17g"))
+        frame = ref.frame()
+        atomic_write_text(cache.with_suffix(".csv"),
+                          unit_csv_text(frame, series_units(frame.columns), float_format="%.17g"))
         atomic_write_text(cache.with_suffix(".json"), json.dumps(info, indent=2, sort_keys=True) + "\n")
     return ref

@@ -7,10 +7,16 @@ matplotlib (Agg), namespace and metadata links stripped, and the style sheet
 is inline. Sections: the answer (one sentence per tolerance level, e.g.
 "3.5 % needs tower_fa=clamped:2 (4 DOFs, 0.012 s per simulated s); 1 % needs
 tower_fa=fem:4 (8 DOFs, 0.05 s per simulated s) at 4.2 times the cost."),
-the study summary, accuracy versus cost with the Pareto front, convergence
-history (best error versus trial), the ranked table, time series of the
-featured sets against the reference (from ``timeseries/`` in the output
-folder), the chosen mode shapes and the failed trials with their reasons.
+the study summary, accuracy (error in %) versus cost with the Pareto front
+(every point an SVG <title>: trial, set, error, cost), convergence history,
+the ranked table (failed trials marked, with their reason), time series of
+the featured sets against the reference (tower-top panels, one row per
+blade, then the other channels; from ``timeseries/``), the error of those
+sets over time, a Campbell diagram of the chosen set for a scene that turns
+a rotor (`campbell_figure`, also `modesel linearize --plot`), the chosen
+mode shapes and the failed trials with their reasons. Every axis carries a
+unit (`_unit`: model/outputs.py `channel_unit`), legends sit below the data,
+tables and figures sit in boxes that scroll sideways inside a 1300 px page.
 """
 from __future__ import annotations
 
@@ -29,6 +35,7 @@ from modesel.study.ranking import choose, most_accurate
 from modesel.study.timeseries import read_series
 
 TABLE_ROWS = 30
+CAMPBELL_POINTS = 5      # rotor speeds of the report's Campbell sweep, 0 to 1.2 x the scene's
 
 
 # --------------------------------------------------------------------------- the answer
@@ -86,32 +93,68 @@ def _figure(w=7.0, h=4.0):
     return plt.subplots(figsize=(w, h))
 
 
+def _unit(channel: str) -> str:
+    """'TTDspFA [m]': a channel name with its unit (model/outputs.py `channel_unit`)."""
+    from modesel.model.outputs import channel_unit
+    unit = channel_unit(channel)
+    return f"{channel} [{unit}]" if unit else f"{channel} [-]"
+
+
+def _legend_below(fig, ax=None, ncol=2, fontsize=8):
+    """Legend outside the data: centred under the figure."""
+    handles, labels = (ax or fig.axes[0]).get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=ncol,
+                   fontsize=fontsize, frameon=False)
+
+
+def _cost_label(study) -> str:
+    return "DOFs [-]" if study.search.cost == "dofs" else "cost [wall s per simulated s]"
+
+
 def pareto_figure(table: pd.DataFrame, front: pd.DataFrame, study, featured: dict) -> str:
+    """Error [%] versus cost of every completed set; each point carries an SVG
+    <title> (trial, set, error, cost) shown on hover; featured sets are labelled."""
     fig, ax = _figure()
     done = table[(table["status"] == "COMPLETE") & table["duplicate_of"].isna()]
-    cost_label = ("DOFs" if study.search.cost == "dofs" else "cost [wall s per simulated s]")
-    ok = done[done["meets_tolerance"]]
-    bad = done[~done["meets_tolerance"]]
-    ax.scatter(bad["cost"], bad["error"], s=18, color="0.6", label="trial")
-    ax.scatter(ok["cost"], ok["error"], s=22, color="tab:green", label="meets tolerance")
+    titles = {}
+    for _, r in done.iterrows():
+        gid = f"trial-{int(r['trial'])}"
+        ax.plot([r["cost"]], [100.0 * r["error"]], "o", ms=5 if r["meets_tolerance"] else 4,
+                color="tab:green" if r["meets_tolerance"] else "0.6", gid=gid)
+        titles[gid] = (f"#{int(r['trial'])} {r['modeset']}: error {_pct(r['error'])}, "
+                       f"cost {r['cost']:.4g}" + ("" if study.search.cost == "dofs" else " s/s")
+                       + f", {int(r['n_dofs']) if not pd.isna(r['n_dofs']) else '?'} DOFs")
+    ax.plot([], [], "o", color="0.6", label="trial (hover a point: trial and set)")
+    ax.plot([], [], "o", color="tab:green", label="meets tolerance")
     if not front.empty:
-        ax.step(front["cost"], front["error"], where="post", color="tab:blue", lw=1.2, label="Pareto front")
+        ax.step(front["cost"], 100.0 * front["error"], where="post", color="tab:blue", lw=1.2,
+                label="Pareto front")
     for level in study.compare.levels:
-        ax.axhline(level, color="tab:red", lw=0.8, ls="--")
-        ax.annotate(_pct(level), (1.0, level), xycoords=("axes fraction", "data"), fontsize=8,
+        ax.axhline(100.0 * level, color="tab:red", lw=0.8, ls="--")
+        ax.annotate(_pct(level), (1.0, 100.0 * level), xycoords=("axes fraction", "data"), fontsize=8,
                     color="tab:red", ha="right", va="bottom")
+    labelled = set()
     for what, number in featured.items():
         row = done[done["trial"] == number]
-        if not row.empty:
-            ax.annotate(f"#{number}", (row["cost"].iloc[0], row["error"].iloc[0]), fontsize=8,
+        if not row.empty and number not in labelled:
+            labelled.add(number)
+            ax.annotate(f"#{number}", (row["cost"].iloc[0], 100.0 * row["error"].iloc[0]), fontsize=8,
                         xytext=(4, 4), textcoords="offset points")
     _log_if_positive(ax, done["error"], "y")
     _log_if_positive(ax, done["cost"], "x")
-    ax.set_xlabel(cost_label)
-    ax.set_ylabel(f"error ({study.compare.metric}, worst channel)")
+    ax.set_xlabel(_cost_label(study))
+    ax.set_ylabel(f"error [%] ({study.compare.metric}, worst channel)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    return _svg(fig)
+    _legend_below(fig, ax, ncol=3)
+    return _with_titles(_svg(fig), titles)
+
+
+def _with_titles(svg: str, titles: dict) -> str:
+    """Insert <title> text as the first child of each <g id="gid"> of `svg`."""
+    for gid, text in titles.items():
+        svg = svg.replace(f'<g id="{gid}">', f'<g id="{gid}"><title>{html.escape(text)}</title>', 1)
+    return svg
 
 
 def _log_if_positive(ax, values, axis):
@@ -125,26 +168,47 @@ def history_figure(table: pd.DataFrame, study) -> str:
     t = table.sort_values("trial")
     done = t[t["status"] == "COMPLETE"]
     failed = t[t["status"] != "COMPLETE"]
-    ax.scatter(done["trial"], done["error"], s=12, color="0.6", label="trial error")
+    ax.scatter(done["trial"], 100.0 * done["error"], s=12, color="0.6", label="trial error")
     best = done["error"].cummin()
-    ax.step(done["trial"], best, where="post", color="tab:blue", label="best so far")
+    ax.step(done["trial"], 100.0 * best, where="post", color="tab:blue", label="best so far")
     if not failed.empty and not done.empty:
-        ax.scatter(failed["trial"], np.full(len(failed), done["error"].max()), marker="x", s=18,
-                   color="tab:red", label="failed")
+        ax.scatter(failed["trial"], np.full(len(failed), 100.0 * done["error"].max()), marker="x", s=18,
+                   color="tab:red", label="failed (drawn at the largest error)")
     for level in study.compare.levels:
-        ax.axhline(level, color="tab:red", lw=0.8, ls="--")
+        ax.axhline(100.0 * level, color="tab:red", lw=0.8, ls="--")
     _log_if_positive(ax, done["error"], "y")
-    ax.set_xlabel("trial")
-    ax.set_ylabel("error")
+    ax.set_xlabel("trial number [-]")
+    ax.set_ylabel(f"error [%] ({study.compare.metric})")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    _legend_below(fig, ax, ncol=3)
     return _svg(fig)
 
 
-def series_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[str]:
-    """One figure per scene: each compared channel, reference and featured sets."""
-    reference = read_series(out_dir, "reference") or {}
-    labels = dict(zip(table["trial"], table["modeset"])) if not table.empty else {}
+def panel_layout(channels) -> list[list]:
+    """Rows of panels as in the papers' figures: the tower top (TTDsp*), then
+    one row per blade (its tip out-of-plane and in-plane deflections, then its
+    other channels), then the rest (e.g. RotSpeed), at most 3 per row."""
+    import re as _re
+    tower = [c for c in channels if c.startswith("TTDsp") or c.startswith("YawBr")]
+    blades: dict = {}
+    rest = []
+    for c in channels:
+        if c in tower:
+            continue
+        m = _re.fullmatch(r"(\D+?)(\d)", c)
+        if m and not c.startswith("Q"):
+            blades.setdefault(int(m.group(2)), []).append(c)
+        else:
+            rest.append(c)
+    order = {"OoPDefl": 0, "IPDefl": 1, "TipDxc": 2, "TipDyc": 3}
+    rows = [tower] if tower else []
+    for b in sorted(blades):
+        rows.append(sorted(blades[b], key=lambda c: order.get(c[:-1], 9)))
+    rows += [rest[i:i + 3] for i in range(0, len(rest), 3)]
+    return [r for r in rows if r]
+
+
+def _featured_series(out_dir, featured: dict):
     reasons = {}
     for what, number in featured.items():
         reasons.setdefault(number, []).append(what)
@@ -153,29 +217,159 @@ def series_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[
         s = read_series(out_dir, number)
         if s is not None:
             sims[number] = ("; ".join(whats), s)
+    return sims
+
+
+def series_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[str]:
+    """One figure per scene: tower-top panels, one row per blade, then the
+    other compared channels; reference and featured sets, legend below."""
+    reference = read_series(out_dir, "reference") or {}
+    labels = dict(zip(table["trial"], table["modeset"])) if not table.empty else {}
+    sims = _featured_series(out_dir, featured)
     figs = []
-    channels = list(study.compare.channels)
+    rows = panel_layout(list(study.compare.channels))
+    ncol = max(len(r) for r in rows)
     import matplotlib.pyplot as plt
     for scene in (s.name for s in study.scenes):
         if scene not in reference and not any(scene in s for _, s in sims.values()):
             continue
-        fig, axes = plt.subplots(len(channels), 1, figsize=(7.5, 2.2 * len(channels) + 0.6),
+        fig, axes = plt.subplots(len(rows), ncol, figsize=(3.6 * ncol + 0.6, 2.3 * len(rows) + 0.4),
                                  sharex=True, squeeze=False)
-        for ax, ch in zip(axes[:, 0], channels):
-            if scene in reference and ch in reference[scene]:
-                ref = reference[scene]
-                ax.plot(ref["Time"], ref[ch], color="k", lw=1.6, label="reference")
-            for number, (what, s) in sims.items():
-                if scene in s and ch in s[scene]:
-                    ax.plot(s[scene]["Time"], s[scene][ch], lw=1.0,
-                            label=f"#{number} {labels.get(number, '')} ({what})")
-            ax.set_ylabel(ch)
-            ax.grid(True, alpha=0.3)
-        axes[0, 0].set_title(f"scene {scene}", fontsize=10)
-        axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("time [s]")
+        for i, row in enumerate(rows):
+            for j in range(ncol):
+                ax = axes[i, j]
+                if j >= len(row):
+                    ax.set_visible(False)
+                    continue
+                ch = row[j]
+                if scene in reference and ch in reference[scene]:
+                    ref = reference[scene]
+                    ax.plot(ref["Time"], ref[ch], color="k", lw=1.6, label="reference")
+                for number, (what, s) in sims.items():
+                    if scene in s and ch in s[scene]:
+                        ax.plot(s[scene]["Time"], s[scene][ch], lw=1.0,
+                                label=f"#{number} {labels.get(number, '')} ({what})")
+                ax.set_ylabel(_unit(ch), fontsize=8)
+                ax.set_title(ch, fontsize=9)
+                ax.grid(True, alpha=0.3)
+                ax.set_xlabel("time [s]", fontsize=8)
+        fig.suptitle(f"scene {scene}", fontsize=10)
+        fig.tight_layout()
+        _legend_below(fig, axes[0, 0], ncol=1)
         figs.append(_svg(fig))
     return figs
+
+
+def error_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[str]:
+    """Per scene: the error of each featured set over time, (S - R) / range R
+    [%] per compared channel, the reference interpolated on the simulation's
+    time grid (the quantity whose RMS is the nrmse)."""
+    reference = read_series(out_dir, "reference") or {}
+    sims = _featured_series(out_dir, featured)
+    labels = dict(zip(table["trial"], table["modeset"])) if not table.empty else {}
+    channels = list(study.compare.channels)
+    import matplotlib.pyplot as plt
+    figs = []
+    for scene in (s.name for s in study.scenes):
+        drawn = [(n, w, s[scene]) for n, (w, s) in sims.items() if scene in s and scene in reference]
+        if not drawn:
+            continue
+        ref = reference[scene]
+        fig, axes = plt.subplots(len(drawn), 1, figsize=(7.5, 2.0 * len(drawn) + 0.6), sharex=True,
+                                 squeeze=False)
+        for ax, (number, what, sim) in zip(axes[:, 0], drawn):
+            for ch in channels:
+                if ch not in sim or ch not in ref:
+                    continue
+                r = np.interp(sim["Time"], ref["Time"], ref[ch])
+                span = float(np.ptp(ref[ch]))
+                if span > 0:
+                    ax.plot(sim["Time"], 100.0 * (sim[ch] - r) / span, lw=0.9, label=ch)
+            ax.set_title(f"#{number} {labels.get(number, '')} ({what})", fontsize=8)
+            ax.set_ylabel("(S - R) / range R [%]", fontsize=8)
+            ax.grid(True, alpha=0.3)
+        axes[-1, 0].set_xlabel("time [s]")
+        fig.suptitle(f"scene {scene}: error over time", fontsize=10)
+        fig.tight_layout()
+        _legend_below(fig, axes[0, 0], ncol=min(5, len(channels)))
+        figs.append(_svg(fig))
+    return figs
+
+
+# --------------------------------------------------------------------------- Campbell diagram
+
+CAMPBELL_HARMONICS = (1, 3, 6)
+
+
+def has_rotor(scene) -> bool:
+    """Whether `scene` (modesel.simulation.Scene) turns a rotor or has flexible blades."""
+    from modesel.vocabulary import ROTOR_AZIMUTH
+    free = getattr(scene, "free", ()) or ()
+    turning = ROTOR_AZIMUTH in free or ROTOR_AZIMUTH in (getattr(scene, "constant_speed", {}) or {})
+    return bool(turning)
+
+
+def scene_rpm(scene) -> float:
+    """The rotor speed of `scene` [rpm]: prescribed, else initial, else 0."""
+    from modesel.vocabulary import ROTOR_AZIMUTH
+    omega = (getattr(scene, "constant_speed", {}) or {}).get(ROTOR_AZIMUTH)
+    if omega is None:
+        omega = (getattr(scene, "initial", {}) or {}).get("RotSpeed", 0.0)
+    return float(omega) * 30.0 / np.pi
+
+
+def campbell_sweep(scene, modeset, rpms) -> list:
+    """[(rpm, [modesel.multibody.linearize.Mode])] of `scene` linearised at each rotor speed."""
+    from modesel.simulation.api import linearize_scene
+    return [(float(r), linearize_scene(scene, modeset, rpm=float(r))[0]) for r in rpms]
+
+
+def mode_kind(mode) -> tuple[str, str]:
+    """(family of the mode, kind): e.g. ('F1', 'backward whirl'), ('F1', 'collective'), ('TFA1', '')."""
+    label = re.sub(r"#\d+$", "", mode.label.split("+")[0])
+    base, _, part = label.rpartition("_")
+    if not base:
+        return label, ""
+    if mode.whirl:
+        return base, f"{mode.whirl} whirl"
+    if part == "coll":
+        return base, "collective"
+    return base, f"cyclic ({part})"
+
+
+def campbell_figure(sweep, title: str = "") -> str:
+    """Campbell diagram: frequency [Hz] versus rotor speed [rpm] of each mode
+    (modes with |damping ratio| >= 0.9, overdamped or real, left out), lines
+    by mode family and kind (collective, backward/forward whirl), and the
+    1P, 3P and 6P excitation lines."""
+    fig, ax = _figure(7.5, 4.5)
+    curves: dict = {}
+    for rpm, modes in sweep:
+        for m in modes:
+            if not np.isfinite(m.frequency_hz) or abs(m.damping_ratio) >= 0.9:
+                continue
+            curves.setdefault(mode_kind(m), []).append((rpm, m.frequency_hz))
+    styles = {"collective": "-", "backward whirl": "--", "forward whirl": ":"}
+    for (base, kind), pts in sorted(curves.items()):
+        pts = sorted(pts)
+        x, y = zip(*pts)
+        ax.plot(x, y, styles.get(kind, "-"), marker="o", ms=3, lw=1.2,
+                label=f"{base} {kind}".strip())
+    rpms = [r for r, _ in sweep]
+    top = max(rpms) if rpms else 1.0
+    fmax = max((f for pts in curves.values() for _, f in pts), default=1.0)
+    for k in CAMPBELL_HARMONICS:
+        ax.plot([0, top], [0, k * top / 60.0], color="0.5", lw=0.8, ls="-.")
+        x_end = min(top, 1.1 * fmax * 60.0 / k)
+        ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4", ha="left", va="bottom")
+    ax.set_ylim(0, 1.1 * fmax)
+    ax.set_xlabel("rotor speed [rpm]")
+    ax.set_ylabel("frequency [Hz]")
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.grid(True, alpha=0.3)
+    _legend_below(fig, ax, ncol=3, fontsize=7)
+    return _svg(fig)
 
 
 def shapes_figure(modeset: ModeSet, scene=None) -> tuple[str | None, list[str]]:
@@ -198,27 +392,45 @@ def shapes_figure(modeset: ModeSet, scene=None) -> tuple[str | None, list[str]]:
             notes.append(f"{fld} ({fm.label()}): not drawn: {exc}")
     if not drawn:
         return None, notes
-    fig, axes = plt.subplots(1, len(drawn), figsize=(3.2 * len(drawn) + 0.5, 3.2), squeeze=False)
-    for ax, (fld, fm, shapes) in zip(axes[0], drawn):
+    ncol = min(3, len(drawn))
+    nrow = -(-len(drawn) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.4 * ncol + 0.5, 3.0 * nrow + 0.3), squeeze=False)
+    for ax in axes.flat[len(drawn):]:
+        ax.set_visible(False)
+    for ax, (fld, fm, shapes) in zip(axes.flat, drawn):
         for k in range(shapes.count):
             ax.plot(shapes.x, shapes.phi[k], label=f"mode {k + 1}")
         ax.set_title(f"{fld}: {fm.label()}", fontsize=9)
-        ax.set_xlabel("x = s/L")
+        ax.set_xlabel("x = s/L [-]")
+        ax.set_ylabel("phi [-] (unit tip)", fontsize=8)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    axes[0, 0].set_ylabel("phi (unit tip)")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.22), ncol=3, frameon=False)
+    fig.tight_layout()
     return _svg(fig), notes
 
 
 # --------------------------------------------------------------------------- HTML
 
 STYLE = """
-body{font-family:sans-serif;max-width:70em;margin:1em auto;padding:0 1em;color:#222}
+*{box-sizing:border-box}
+body{font-family:sans-serif;max-width:1300px;margin:1em auto;padding:0 1em;color:#222}
 h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:2em}
-table{border-collapse:collapse;font-size:0.8em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
-th{background:#f0f0f0}td.l,th.l{text-align:left}.answer{font-size:1.1em;background:#eef6ee;padding:0.6em}
-.note{color:#555;font-size:0.9em}svg{max-width:100%;height:auto}
+.scroll{max-width:100%;overflow-x:auto;margin:0.5em 0}
+.fig{max-width:100%;overflow-x:auto;margin:0.5em 0}
+table{border-collapse:collapse;font-size:0.8em;max-width:100%}
+td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;vertical-align:top}
+td.l,th.l{text-align:left}td.wrap{max-width:28em;overflow-wrap:anywhere;white-space:normal}
+th{background:#f0f0f0}tr.fail td{background:#fff3f0}
+.answer{font-size:1.1em;background:#eef6ee;padding:0.6em}
+.note{color:#555;font-size:0.9em}svg{max-width:100%;height:auto;display:block}
 """
+
+#: ranked-table columns: internal name -> header with unit
+HEADERS = {"n_dofs": "DOFs", "error": "error [%]", "worst_channel": "worst channel",
+           "wall_time_s": "wall time [s]", "speed": "speed [x real time]",
+           "meets_tolerance": "meets tolerance", "rank": "rank", "trial": "trial",
+           "modeset": "mode set", "status": "status", "reason": "reason"}
+PERCENT = ("error",)
 
 
 def _e(x) -> str:
@@ -235,13 +447,30 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def _table(df: pd.DataFrame, columns, left=()) -> str:
-    head = "".join(f"<th class='{'l' if c in left else ''}'>{_e(c)}</th>" for c in columns)
+def _table(df: pd.DataFrame, columns, left=(), headers=None, percent=(), wrap=()) -> str:
+    """An HTML table in its own horizontally scrolling box; `percent` columns
+    (fractions) shown in %; a failed row (status FAIL) is marked and its
+    empty numeric cells say 'failed'."""
+    headers = headers or {}
+
+    def cls(c):
+        return " ".join(x for x in ("l" if c in left else "", "wrap" if c in wrap else "") if x)
+
+    head = "".join(f"<th class='{cls(c)}'>{_e(headers.get(c, c))}</th>" for c in columns)
     rows = []
     for _, r in df.iterrows():
-        rows.append("<tr>" + "".join(f"<td class='{'l' if c in left else ''}'>{_e(_fmt(r.get(c)))}</td>"
-                                     for c in columns) + "</tr>")
-    return f"<table><tr>{head}</tr>{''.join(rows)}</table>"
+        failed = r.get("status") == "FAIL"
+        cells = []
+        for c in columns:
+            v = r.get(c)
+            if c in percent and not (v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))):
+                v = 100.0 * float(v)
+            text = _fmt(v)
+            if failed and text == "" and c in percent:
+                text = "failed"
+            cells.append(f"<td class='{cls(c)}'>{_e(text)}</td>")
+        rows.append(f"<tr{' class=fail' if failed else ''}>" + "".join(cells) + "</tr>")
+    return f"<div class='scroll'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
 
 
 def render_html(study, summary: dict, sentences: list, figures: dict, notes: list, info: dict) -> str:
@@ -287,30 +516,54 @@ def render_html(study, summary: dict, sentences: list, figures: dict, notes: lis
               f"earlier record), {len(ranked)} distinct sets</li>",
               f"<li>storage: {_e(info.get('storage_display', ''))}; study name {_e(study.name)}</li>",
               f"<li>rendered {_e(datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC'))}</li></ul>",
-              _table(pd.DataFrame(ref_rows), list(ref_rows[0]), left=("scene", "file", "reference"))]
+              _table(pd.DataFrame(ref_rows), list(ref_rows[0]), left=("scene", "file", "reference"),
+                     wrap=("file", "reference"))]
+
+    def fig(svg):
+        return f"<div class='fig'>{svg}</div>"
 
     parts.append("<h2>Accuracy versus cost</h2>")
-    parts.append(figures.get("pareto", "<p class='note'>no completed trial</p>"))
+    parts.append(fig(figures["pareto"]) if "pareto" in figures else "<p class='note'>no completed trial</p>")
+    if "pareto" in figures:
+        parts.append("<p class='note'>Hover a point for its trial number and mode set.</p>")
     parts.append("<h2>Convergence history</h2>")
-    parts.append(figures.get("history", "<p class='note'>no completed trial</p>"))
+    parts.append(fig(figures["history"]) if "history" in figures else "<p class='note'>no completed trial</p>")
 
     parts.append(f"<h2>Ranked mode sets (first {TABLE_ROWS})</h2>")
     if not ranked.empty:
-        cols = ["rank", "trial", "modeset", "n_dofs", "error", "worst_channel"] + \
-               [f"error_{c}" for c in study.compare.channels] + \
+        parts.append("<p class='note'>Ranked: sets meeting the tolerance first, cheapest first (cost, "
+                     "then DOFs, then error); then the others, most accurate first; failed trials last "
+                     "(as trials.csv).</p>")
+        channel_cols = [f"error_{c}" for c in study.compare.channels]
+        headers = dict(HEADERS, cost=_cost_label(study),
+                       **{f"error_{c}": f"error {c} [%]" for c in study.compare.channels})
+        cols = ["rank", "trial", "modeset", "n_dofs", "error", "worst_channel"] + channel_cols + \
                ["wall_time_s", "speed", "cost", "meets_tolerance", "status", "reason"]
-        parts.append(_table(ranked.head(TABLE_ROWS), cols, left=("modeset", "worst_channel", "status", "reason")))
+        parts.append(_table(ranked.head(TABLE_ROWS), cols, headers=headers,
+                            left=("modeset", "worst_channel", "status", "reason"),
+                            percent=("error", *channel_cols), wrap=("modeset", "reason")))
 
     parts.append("<h2>Time series</h2>")
-    parts += figures.get("series", []) or ["<p class='note'>no stored time series</p>"]
+    parts += [fig(f) for f in figures.get("series", [])] or ["<p class='note'>no stored time series</p>"]
+    if figures.get("errors"):
+        parts.append("<h2>Error of the chosen sets over time</h2>")
+        parts += [fig(f) for f in figures["errors"]]
+    if figures.get("campbell"):
+        parts.append("<h2>Campbell diagram</h2>")
+        parts.append("<p class='note'>Modes of the chosen set linearised at constant rotor speeds "
+                     "(frequencies in the fixed frame, multi-blade coordinates); 1P, 3P and 6P: rotor "
+                     "harmonics.</p>")
+        parts.append(f"<div class='fig campbell'>{figures['campbell']}</div>")
     parts.append("<h2>Chosen mode shapes</h2>")
-    parts.append(figures.get("shapes") or "<p class='note'>no shapes drawn</p>")
+    parts.append(fig(figures["shapes"]) if figures.get("shapes") else "<p class='note'>no shapes drawn</p>")
 
     failed = table[table["status"] != "COMPLETE"] if n_total else table
     if n_total and not failed.empty:
         parts.append("<h2>Failed trials</h2>")
-        parts.append(_table(failed.head(TABLE_ROWS), ["trial", "modeset", "reason"],
-                            left=("modeset", "reason")))
+        failed = failed.assign(modeset=failed["modeset"].fillna("").replace("", "(set not recorded)"),
+                               reason=failed["reason"].fillna("").replace("", "(no reason recorded)"))
+        parts.append(_table(failed.head(TABLE_ROWS), ["trial", "modeset", "reason"], headers=HEADERS,
+                            left=("modeset", "reason"), wrap=("modeset", "reason")))
     if notes:
         parts.append("<h2>Notes</h2><ul>" + "".join(f"<li class='note'>{_e(n)}</li>" for n in notes) + "</ul>")
     parts.append("</body></html>")
@@ -329,8 +582,16 @@ def render(out_dir, study, summary: dict, sentences: list, chosen: ModeSet | Non
         figures["pareto"] = pareto_figure(table, summary["pareto"], study, featured)
         figures["history"] = history_figure(table, study)
     figures["series"] = series_figures(out_dir, study, featured, table)
+    figures["errors"] = error_figures(out_dir, study, featured, table)
     if chosen is not None:
         svg, shape_notes = shapes_figure(chosen, scene)
         figures["shapes"] = svg
         notes += shape_notes
+        if scene is not None and has_rotor(scene):
+            top = max(scene_rpm(scene), 1.0)
+            try:
+                sweep = campbell_sweep(scene, chosen, np.linspace(0.0, 1.2 * top, CAMPBELL_POINTS))
+                figures["campbell"] = campbell_figure(sweep, f"{chosen.label()} on {study.scenes[0].name}")
+            except ModeselError as exc:
+                notes.append(f"Campbell diagram not drawn: {exc}")
     return render_html(study, summary, sentences, figures, notes, info)

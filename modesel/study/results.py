@@ -1,19 +1,26 @@
 """Results of a study, written to the output folder (every file atomically:
 written to a temporary file in the same folder, then `os.replace`d).
 
+Every CSV has a second header row of units in parentheses, as OpenFAST text
+outputs do (``pandas.read_csv(path, header=[0, 1])`` reads it with its units;
+`modesel.files.read_unit_csv` gives a flat table with ``attrs["units"]``).
+
 - ``trials.csv``: one row per evaluated mode set, ranked. Sets meeting the
   tolerance come first, cheapest first (cost, then DOF count, then error);
-  then the others, most accurate first; failed trials last. Columns: rank,
-  trial, modeset (e.g. ``tower_fa=clamped:2 blade_flap=fem:3``),
-  ``<field>_family``, ``<field>_count`` (and ``<field>_<param>``) per searched
-  field, n_dofs, error (worst weighted channel), worst_channel,
-  ``error_<channel>`` per compared channel, wall_time_s, simulated_time_s,
-  speed (simulated s per wall s), cost, meets_tolerance, status
-  (COMPLETE/FAIL) and reason. A trial that proposed a set already evaluated
-  is served from that trial's record (user attribute ``duplicate_of``) and
-  is not listed again.
+  then the others, most accurate first; failed trials last; the column
+  ``rank_group`` says which of the three groups a row is in and its order.
+  Columns: rank, rank_group, trial, modeset (e.g.
+  ``tower_fa=clamped:2 blade_flap=fem:3``), ``<field>_family``,
+  ``<field>_count`` (and ``<field>_<param>``) per searched field, n_dofs,
+  error_pct (worst weighted channel, %), worst_channel,
+  ``error_pct_<channel>`` per compared channel (%), wall_time_s (s),
+  simulated_time_s (s), speed_x_real_time (simulated s per wall s), the cost
+  (``cost_wall_s_per_sim_s``, wall s per simulated s, or ``cost_n_dofs`` with
+  ``[search] cost = "dofs"``), meets_tolerance, status (COMPLETE/FAIL) and
+  reason. A trial that proposed a set already evaluated is served from that
+  trial's record (user attribute ``duplicate_of``) and is not listed again.
 - ``pareto.csv``: the completed sets no other set beats on both error and
-  cost, cheapest first.
+  cost, ranked cheapest first (column ``rank``), same columns.
 - ``best_modeset.json``: the cheapest set meeting the tolerance, or the most
   accurate one if none does; ``selection`` says which.
 - ``timeseries/``: the compared channels of featured trials (and the
@@ -37,10 +44,10 @@ import numpy as np
 import pandas as pd
 
 from modesel.errors import ModeselError
-from modesel.files import atomic_write_text
+from modesel.files import atomic_write_text, unit_csv_text
 from modesel.modeset import ModeSet
 from modesel.study import report
-from modesel.study.ranking import best_modeset, featured_trials, pareto, rank, trial_table
+from modesel.study.ranking import best_modeset, featured_trials, file_table, pareto, rank, trial_table
 from modesel.study.search import Objective, load_scenes, mask_url, open_study, prepare_references
 from modesel.study.search import engine as engines
 from modesel.study.spec import parse_study
@@ -64,8 +71,9 @@ def _json_default(obj):
     return str(obj)
 
 
-def write_csv(path, df: pd.DataFrame) -> None:
-    atomic_write_text(path, df.to_csv(index=False, float_format="%.9g"))
+def write_csv(path, df: pd.DataFrame, units: dict) -> None:
+    """CSV with a second header row of units (`modesel.files.unit_csv_text`)."""
+    atomic_write_text(path, unit_csv_text(df, units))
 
 
 # --------------------------------------------------------------------------- run metadata
@@ -101,9 +109,11 @@ def write_results(out_dir, optuna_study, study) -> dict:
     table = trial_table(trials, study)
     ranked = rank(table)
     front = pareto(table)
-    drop = ["duplicate_of"]
-    write_csv(out_dir / "trials.csv", ranked.drop(columns=drop, errors="ignore"))
-    write_csv(out_dir / "pareto.csv", front.drop(columns=drop, errors="ignore"))
+    write_csv(out_dir / "trials.csv", *file_table(ranked, study))
+    front_ranked = front.copy()
+    if not front_ranked.empty:
+        front_ranked.insert(0, "rank", np.arange(1, len(front_ranked) + 1))
+    write_csv(out_dir / "pareto.csv", *file_table(front_ranked, study, groups=False))
     best = best_modeset(ranked, study, {t.number: t for t in trials})
     write_json(out_dir / "best_modeset.json", best)
     return {"table": table, "ranked": ranked, "pareto": front, "best": best,

@@ -168,7 +168,8 @@ def render_reference() -> str:
             "(trapezoidal rule), range R = max R - min R.", "",
             "| metric | formula | meaning |", "|---|---|---|"]
     for m in METRICS.values():
-        out.append(f"| `{m.name}` | {getattr(m, 'formula', '') or ''} | {m.description} |")
+        formula = m.formula.replace("|", "\\|")
+        out.append(f"| `{m.name}` | {f'`{formula}`' if formula else ''} | {m.description} |")
     out += ["", "## Families", "",
             "Counts are capped by each family's maximum. Parameters can be searched within "
             "`[search.fields.<field>.params.<family>]` ranges inside the allowed range.", "",

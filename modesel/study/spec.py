@@ -80,9 +80,10 @@ from pathlib import Path
 from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS
 
-REFERENCE_KINDS = ("openfast", "csv", "internal")
-SAMPLER_NAMES = ("tpe", "nsga2", "random")
-COST_NAMES = ("wall_time", "dofs")
+from modesel.study import schema
+from modesel.study.schema import COST_NAMES, REFERENCE_KINDS, SAMPLER_NAMES  # noqa: F401  (re-exported)
+
+D = schema.default   # D(table, key): the declared default (allowed keys and defaults come from schema.py)
 
 
 @dataclass(frozen=True)
@@ -310,37 +311,36 @@ def _scenes(data, file: str, base: Path) -> tuple:
     scenes, names = [], set()
     for i, entry in enumerate(entries):
         r = _Reader(entry, f"scene[{i}]", file)
-        r.allow("path", "name", "weight", "tmax", "dt", "reference")
+        r.allow(*schema.keys("scene"))
         path = r.path("path", base, required=True)
         name = r.string("name", default=path.stem)
         if name in names:
             raise r.error(f"scene name '{name}' used twice; give each scene a distinct name", "name")
         names.add(name)
         scenes.append(SceneSpec(
-            path=path, name=name, weight=r.number("weight", 1.0, positive=True),
+            path=path, name=name, weight=r.number("weight", D("scene", "weight"), positive=True),
             tmax=r.number("tmax", positive=True), dt=r.number("dt", positive=True),
             reference=r.path("reference", base)))
     return tuple(scenes)
 
 
 def _reference(r: _Reader, base: Path, scenes: tuple) -> tuple[ReferenceSpec, tuple]:
-    r.allow("kind", "path", "channels", "time_offset", "window", "family", "tolerance",
-            "start_count", "max_count")
-    kind = r.string("kind", default="internal", choices=REFERENCE_KINDS)
+    r.allow(*schema.keys("reference"))
+    kind = r.string("kind", default=D("reference", "kind"), choices=REFERENCE_KINDS)
     channels_r = r.table("channels")
     channels = {}
     for sim_name in channels_r.data:
         channels[sim_name] = channels_r.string(sim_name)
-    family = r.string("family", default="fem")
-    start = r.number("start_count", 1, integer=True, low=1)
-    max_count = r.number("max_count", 10, integer=True, low=1)
+    family = r.string("family", default=D("reference", "family"))
+    start = r.number("start_count", D("reference", "start_count"), integer=True, low=1)
+    max_count = r.number("max_count", D("reference", "max_count"), integer=True, low=1)
     if max_count < start:
         raise r.error(f"range has min > max: start_count={start} > max_count={max_count}", "max_count")
     spec = ReferenceSpec(
         kind=kind, path=r.path("path", base), channels=channels,
-        time_offset=r.number("time_offset", 0.0),
+        time_offset=r.number("time_offset", D("reference", "time_offset")),
         window=r.pair("window") if "window" in r.data else None,
-        family=family, tolerance=r.number("tolerance", 0.001, positive=True),
+        family=family, tolerance=r.number("tolerance", D("reference", "tolerance"), positive=True),
         start_count=start, max_count=max_count)
     if kind == "internal":
         for key in ("path", "channels", "time_offset"):
@@ -372,7 +372,7 @@ def _reference(r: _Reader, base: Path, scenes: tuple) -> tuple[ReferenceSpec, tu
 
 def _compare(r: _Reader) -> CompareSpec:
     from modesel.study.metrics import METRICS
-    r.allow("channels", "metric", "tolerance", "levels")
+    r.allow(*schema.keys("compare"))
     if "channels" not in r.data:
         raise r.error("missing: list the channels to compare, e.g. channels = [\"TTDspFA\"]", "channels")
     raw = r.data["channels"]
@@ -389,8 +389,8 @@ def _compare(r: _Reader) -> CompareSpec:
     else:
         raise r.error(f"must be a non-empty list of channel names or a table {{channel = weight}}, "
                       f"got {raw!r}", "channels")
-    metric = r.string("metric", default="nrmse", choices=tuple(METRICS))
-    tolerance = r.number("tolerance", 0.035, positive=True)
+    metric = r.string("metric", default=D("compare", "metric"), choices=tuple(METRICS))
+    tolerance = r.number("tolerance", D("compare", "tolerance"), positive=True)
     levels = [tolerance]
     if "levels" in r.data:
         raw_levels = r.data["levels"]
@@ -411,7 +411,7 @@ def _family(name: str, r: _Reader, key: str):
 
 
 def _search(r: _Reader) -> SearchSpec:
-    r.allow("fields", "sampler", "cost")
+    r.allow(*schema.keys("search"))
     fields_r = r.table("fields", required=True)
     for name in fields_r.data:
         if name not in FIELDS:
@@ -421,14 +421,14 @@ def _search(r: _Reader) -> SearchSpec:
     spaces = []
     for name in (f for f in FIELDS if f in fields_r.data):
         fr = fields_r.table(name)
-        fr.allow("families", "min_count", "max_count", "params")
+        fr.allow(*schema.keys("search.fields.<field>"))
         fams = fr.data.get("families")
         if not isinstance(fams, list) or not fams or not all(isinstance(f, str) for f in fams):
             raise fr.error(f"must be a non-empty list of family names, got {fams!r}", "families")
         if len(set(fams)) != len(fams):
             raise fr.error("a family is listed twice", "families")
-        min_count = fr.number("min_count", 1, integer=True, low=1)
-        max_count = fr.number("max_count", 4, integer=True, low=1)
+        min_count = fr.number("min_count", D("search.fields.<field>", "min_count"), integer=True, low=1)
+        max_count = fr.number("max_count", D("search.fields.<field>", "max_count"), integer=True, low=1)
         if min_count > max_count:
             raise fr.error(f"range has min > max: min_count={min_count} > max_count={max_count}",
                            "max_count")
@@ -462,26 +462,27 @@ def _search(r: _Reader) -> SearchSpec:
                 ranges[pname] = (low, high)
             families.append(FamilySpace(fam_name, min_count, top, ranges))
         spaces.append(FieldSpace(name, tuple(families)))
-    return SearchSpec(tuple(spaces), r.string("sampler", "tpe", SAMPLER_NAMES),
-                      r.string("cost", "wall_time", COST_NAMES))
+    return SearchSpec(tuple(spaces), r.string("sampler", D("search", "sampler"), SAMPLER_NAMES),
+                      r.string("cost", D("search", "cost"), COST_NAMES))
 
 
 def _budget(r: _Reader) -> BudgetSpec:
-    r.allow("n_trials", "timeout_s", "stop_when_met", "keep_searching_trials")
+    r.allow(*schema.keys("budget"))
     return BudgetSpec(
-        n_trials=r.number("n_trials", 100, integer=True, low=1),
-        timeout_s=r.number("timeout_s", None, positive=True),
-        stop_when_met=r.boolean("stop_when_met", True),
-        keep_searching_trials=r.number("keep_searching_trials", 0, integer=True, low=0))
+        n_trials=r.number("n_trials", D("budget", "n_trials"), integer=True, low=1),
+        timeout_s=r.number("timeout_s", D("budget", "timeout_s"), positive=True),
+        stop_when_met=r.boolean("stop_when_met", D("budget", "stop_when_met")),
+        keep_searching_trials=r.number("keep_searching_trials", D("budget", "keep_searching_trials"),
+                                       integer=True, low=0))
 
 
 def _run(r: _Reader, base: Path) -> RunSpec:
-    r.allow("n_jobs", "storage", "seed")
+    r.allow(*schema.keys("run"))
     storage = r.string("storage")
     if storage is not None and "://" not in storage:   # a journal file, relative to the study file
         storage = str((base / storage).resolve())
-    return RunSpec(n_jobs=r.number("n_jobs", 1, integer=True, low=1),
-                   storage=storage, seed=r.number("seed", 0, integer=True, low=0))
+    return RunSpec(n_jobs=r.number("n_jobs", D("run", "n_jobs"), integer=True, low=1),
+                   storage=storage, seed=r.number("seed", D("run", "seed"), integer=True, low=0))
 
 
 # --------------------------------------------------------------------------- front
@@ -495,16 +496,16 @@ def parse_study(text: str, path: str | Path) -> Study:
     except tomllib.TOMLDecodeError as exc:
         raise ModeselError(f"not valid TOML: {exc}", file=file) from None
     top = _Reader(data, "", file)
-    top.allow("study", "scene", "reference", "compare", "search", "budget", "run")
+    top.allow(*schema.TOP_LEVEL)
     meta = top.table("study")
-    meta.allow("name", "description")
+    meta.allow(*schema.keys("study"))
     base = path.parent
     scenes = _scenes(data, file, base)
     reference, scenes = _reference(top.table("reference"), base, scenes)
     compare = _compare(top.table("compare", required=True))
     search = _search(top.table("search", required=True))
     return Study(path=path, name=meta.string("name", default=path.stem),
-                 description=meta.string("description", default=""), scenes=scenes,
+                 description=meta.string("description", default=D("study", "description")), scenes=scenes,
                  reference=reference, compare=compare, search=search,
                  budget=_budget(top.table("budget")), run=_run(top.table("run"), base), text=text)
 

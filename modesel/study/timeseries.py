@@ -1,14 +1,16 @@
 """Time series of a study's output folder, ``timeseries/``: the compared
 channels of the reference and of trials, one long CSV per trial (column
 ``scene``), so that `modesel report` can redraw the overlays. Written
-atomically (temporary file, then `os.replace`)."""
+atomically (temporary file, then `os.replace`), with a second header row of
+units (``(-),(s),(m),...``, `modesel.model.outputs.channel_unit`), read back
+by ``pandas.read_csv(path, header=[0, 1])`` or `read_series`."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import pandas as pd
 
-from modesel.files import atomic_write_text
+from modesel.files import atomic_write_text, read_unit_csv, unit_csv_text
 
 SERIES_DIR = "timeseries"
 
@@ -25,16 +27,31 @@ def write_series(out_dir, trial: int | str, by_scene: dict) -> None:
         frames.append(pd.DataFrame({"scene": scene, "Time": time, **channels}))
     path = series_path(out_dir, trial)
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(path, pd.concat(frames, ignore_index=True).to_csv(index=False, float_format="%.9g"))
+    df = pd.concat(frames, ignore_index=True)
+    atomic_write_text(path, unit_csv_text(df, series_units(df.columns)))
+
+
+def series_units(columns) -> dict:
+    """{column: unit} of a time-series table: scene "-", Time "s", channels
+    by `channel_unit` ("?" when unknown)."""
+    from modesel.model.outputs import channel_unit
+    return {c: "-" if c == "scene" else "s" if c == "Time" else (channel_unit(c) or "?") for c in columns}
 
 
 def read_series(out_dir, trial: int | str) -> dict | None:
-    """{scene: DataFrame(Time, channels...)} or None when not stored."""
+    """{scene: DataFrame(Time, channels...)} or None when not stored; each
+    frame's ``attrs["units"]`` holds the units of its columns."""
     path = series_path(out_dir, trial)
     if not path.exists():
         return None
-    df = pd.read_csv(path)
-    return {str(s): g.drop(columns="scene").reset_index(drop=True) for s, g in df.groupby("scene", sort=False)}
+    df = read_unit_csv(path)
+    units = df.attrs.get("units", {})
+    out = {}
+    for s, g in df.groupby("scene", sort=False):
+        frame = g.drop(columns="scene").reset_index(drop=True)
+        frame.attrs["units"] = {c: u for c, u in units.items() if c != "scene"}
+        out[str(s)] = frame
+    return out
 
 
 def prune_series(out_dir, keep) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -27,6 +26,7 @@ from modesel.study.search.claims import distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
+from modesel.study.search.progress import Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
 from modesel.study.search.storage import (default_storage, open_storage, open_study, queue_baseline,
                                           requeue_interrupted)
@@ -101,41 +101,6 @@ def optimize_worker(objective: Objective, storage_url, study, sampler_name: str,
     except ModeselError as exc:
         return str(exc)
     return None
-
-
-class Progress:
-    """tqdm bar on stderr when it is a terminal; updated per finished trial."""
-
-    def __init__(self, total: int, name: str, enabled: bool | None = None):
-        enabled = sys.stderr.isatty() if enabled is None else enabled
-        self.bar = None
-        if enabled:
-            from tqdm import tqdm
-            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True)
-        self.done = 0
-
-    def set(self, done: int, best: float | None = None, failed: int = 0):
-        if self.bar is None:
-            return
-        self.bar.update(max(0, done - self.done))
-        self.done = max(self.done, done)
-        self.bar.set_postfix_str((f"best error {best:.3g}" if best is not None else "") +
-                                 (f" failed {failed}" if failed else ""))
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
-
-
-def counts(opt, since: int, criterion):
-    """(sets evaluated since trial `since`, best error so far, failed since) for the progress bar."""
-    import optuna
-    TS = optuna.trial.TrialState
-    done = [t for t in opt.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
-            if t.number >= since and "duplicate_of" not in t.user_attrs]
-    errors = [criterion.assess(t.user_attrs["errors"]).error for t in opt.get_trials(
-        deepcopy=False, states=(TS.COMPLETE,)) if t.user_attrs.get("errors")]
-    return len(done), (min(errors) if errors else None), sum(1 for t in done if t.state == TS.FAIL)
 
 
 @dataclass

@@ -1,0 +1,167 @@
+"""What a person watching a run sees: the progress bar of `modesel run` and
+`modesel worker`, the progress line of a long `modesel simulate`, and a note
+while the engine compiles on first use.
+
+- `Progress`: a tqdm bar on stderr (trials done of the budget, best error so
+  far in %, failed count, elapsed and ETA), drawn only when stderr is a
+  terminal and not `--quiet`; `runner.run_search` updates it after every
+  finished trial (`counts`).
+- `SimulationProgress`: a one-line "simulated t of T s, 0.21x real time,
+  ETA ..." on stderr, refreshed about once per wall second by the
+  integrator's `progress` hook, shown once a run has taken more than
+  `after_s` seconds (short runs print nothing).
+- `compile_notice`: "compiling the engine (first run only, ~1-2 min)..." when
+  the numba cache of the engine's kernel holds no index file yet.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+import time
+from pathlib import Path
+
+COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
+#: modules whose @njit(cache=True) functions are compiled on first use
+COMPILED_MODULES = ("modesel.multibody.kernel", "modesel.aero.bem")
+
+
+def _index_files(module: str) -> list:
+    """numba cache index files (*.nbi) of `module` in the places numba looks:
+    NUMBA_CACHE_DIR, __pycache__ beside the source, the user-wide cache."""
+    spec = importlib.util.find_spec(module)
+    if spec is None or not spec.origin:
+        return []
+    source = Path(spec.origin)
+    stem = source.stem
+    places = [source.parent / "__pycache__"]
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        root = Path(os.environ["NUMBA_CACHE_DIR"])
+        places += [root, *root.glob("**/" + source.parent.name)]
+    places.append(Path.home() / ".cache" / "numba")
+    found = []
+    for place in places:
+        if place.is_dir():
+            found += list(place.glob(f"{stem}.*.nbi")) or list(place.glob(f"**/{stem}.*.nbi"))
+        if found:
+            break
+    return found
+
+
+def engine_is_cold() -> bool:
+    """True when the engine's compiled kernel has no numba cache yet (the
+    first simulation will compile it)."""
+    try:
+        return not all(_index_files(m) for m in COMPILED_MODULES)
+    except OSError:
+        return False
+
+
+def compile_notice(stream=None, quiet: bool = False) -> bool:
+    """Print `COMPILE_MESSAGE` on stderr when the engine is cold; True if printed."""
+    if quiet or not engine_is_cold():
+        return False
+    print(COMPILE_MESSAGE, file=stream or sys.stderr, flush=True)
+    return True
+
+
+def _duration(seconds: float) -> str:
+    seconds = max(0.0, float(seconds))
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds // 60:.0f} min {seconds % 60:02.0f} s"
+    return f"{seconds // 3600:.0f} h {seconds % 3600 // 60:02.0f} min"
+
+
+def speed_text(simulated_s: float, wall_s: float) -> str:
+    """Simulated seconds per wall second with two significant digits, e.g. '0.23x real time'."""
+    if wall_s <= 0:
+        return "- x real time"
+    return f"{simulated_s / wall_s:.2g}x real time"
+
+
+class Progress:
+    """tqdm bar of a search on stderr, shown when stderr is a terminal (or
+    `enabled`) and not `quiet` (default: quiet when `enabled` is False, which
+    also silences the compile notice). `set(done, best, failed)` after each trial:
+    done = distinct sets evaluated by this run, best = best error so far
+    (fraction, shown in %), failed = failed trials of this run."""
+
+    def __init__(self, total: int, name: str, enabled: bool | None = None, quiet: bool | None = None):
+        quiet = enabled is False if quiet is None else quiet
+        enabled = (sys.stderr.isatty() if enabled is None else enabled) and not quiet
+        self.bar = None
+        self.done = 0
+        compile_notice(quiet=quiet)
+        if enabled:
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True,
+                            bar_format="{desc}: {n_fmt}/{total_fmt} trials |{bar}| "
+                                       "[{elapsed} elapsed, ETA {remaining}]{postfix}")
+            self.bar.set_postfix_str("best error -, 0 failed")
+
+    @staticmethod
+    def postfix(best: float | None, failed: int) -> str:
+        best_text = "-" if best is None else f"{100.0 * best:.3g} %"
+        return f"best error {best_text}, {failed} failed"
+
+    def set(self, done: int, best: float | None = None, failed: int = 0):
+        if self.bar is None:
+            return
+        self.bar.update(max(0, done - self.done))
+        self.done = max(self.done, done)
+        self.bar.set_postfix_str(self.postfix(best, failed))
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def counts(opt, since: int, criterion):
+    """(distinct sets finished since trial `since`, best error so far of the
+    whole study, failed since) for `Progress.set`."""
+    import optuna
+    TS = optuna.trial.TrialState
+    done = [t for t in opt.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
+            if t.number >= since and "duplicate_of" not in t.user_attrs]
+    errors = [criterion.assess(t.user_attrs["errors"]).error for t in opt.get_trials(
+        deepcopy=False, states=(TS.COMPLETE,)) if t.user_attrs.get("errors")]
+    return len(done), (min(errors) if errors else None), sum(1 for t in done if t.state == TS.FAIL)
+
+
+class SimulationProgress:
+    """`progress(t, tmax)` hook of a simulation: after `after_s` wall seconds,
+    rewrites one stderr line at most once per `every_s` wall seconds:
+    "simulated 4.3 of 20 s, 0.21x real time, ETA 1 min 15 s"."""
+
+    def __init__(self, label: str = "", stream=None, after_s: float = 2.0, every_s: float = 1.0,
+                 enabled: bool | None = None):
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty() if enabled is None else enabled
+        self.label = label
+        self.after_s, self.every_s = after_s, every_s
+        self.start = time.perf_counter()
+        self.last = -1e9
+        self.shown = False
+
+    def line(self, t: float, tmax: float, wall: float) -> str:
+        rate = t / wall if wall > 0 else 0.0
+        eta = _duration((tmax - t) / rate) if rate > 0 else "-"
+        return (f"{self.label}simulated {t:.3g} of {tmax:.3g} s, {speed_text(t, wall)}, "
+                f"ETA {eta}")
+
+    def __call__(self, t: float, tmax: float) -> None:
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        wall = now - self.start
+        if wall < self.after_s or now - self.last < self.every_s:
+            return
+        self.last = now
+        self.shown = True
+        print("\r" + self.line(t, tmax, wall).ljust(70), end="", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.shown:
+            print(file=self.stream, flush=True)

@@ -1,0 +1,150 @@
+"""Every CSV modesel writes carries its units (a second header row, as
+OpenFAST text outputs), read back by the one-liner the README documents;
+the study-file reference matches the validator's schema; `simulate` says
+which DOFs and effects ran and warns about settings that act on nothing."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import modesel.study.search.engine
+from modesel.cli import main
+from modesel.files import read_unit_csv
+from modesel.study import schema
+from test_search import FAKE_ENGINE, make_study
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def read_with_units(path):
+    """The README's one-liner."""
+    return pd.read_csv(path, header=[0, 1])
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("units")
+    study = make_study(folder, n_trials=10)
+    mp = pytest.MonkeyPatch()
+    mp.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
+    try:
+        assert main(["run", str(study), "--out", str(folder / "out"), "--quiet"]) == 0
+    finally:
+        mp.undo()
+    return folder / "out"
+
+
+def test_trials_and_pareto_csv_carry_units_and_rank(finished):
+    for name in ("trials.csv", "pareto.csv"):
+        df = read_with_units(finished / name)
+        units = dict(df.columns)
+        assert units["error_pct"] == "(%)" and units["error_pct_TTDspFA"] == "(%)", name
+        assert units["wall_time_s"] == "(s)" and units["cost_wall_s_per_sim_s"] == "(s/s)", name
+        assert units["speed_x_real_time"] == "(sim s/wall s)", name
+        assert list(df["rank"].iloc[:, 0]) == list(range(1, len(df) + 1)), name
+        flat = df.droplevel(1, axis=1)
+        # percent: the worst channel, 100 x the fraction the criterion uses
+        np.testing.assert_allclose(flat["error_pct"], flat[["error_pct_TTDspFA", "error_pct_OoPDefl1"]].max(axis=1))
+        done = flat[flat["status"] == "COMPLETE"]
+        np.testing.assert_allclose(done["speed_x_real_time"] * done["cost_wall_s_per_sim_s"], 1.0, rtol=1e-6)
+    trials = read_with_units(finished / "trials.csv").droplevel(1, axis=1)
+    assert trials["rank_group"].iloc[0].startswith("meets tolerance: cheapest first")
+    meets = trials[trials["meets_tolerance"]]
+    assert (meets["error_pct"] <= 3.5).all() and (trials.loc[~trials["meets_tolerance"], "error_pct"] > 3.5).all()
+
+
+def test_time_series_csv_carry_units_and_read_back(finished):
+    files = sorted((finished / "timeseries").glob("*.csv"))
+    assert any(p.name == "reference.csv" for p in files) and len(files) >= 2
+    for path in files:
+        df = read_with_units(path)
+        units = dict(df.columns)
+        assert units["scene"] == "(-)" and units["Time"] == "(s)"
+        assert units["TTDspFA"] == "(m)" and units["OoPDefl1"] == "(m)"
+        flat = read_unit_csv(path)
+        assert flat.attrs["units"]["TTDspFA"] == "m" and flat["Time"].dtype == float
+
+
+def test_csv_reference_accepts_a_unit_row(tmp_path):
+    from modesel.study.reference import _read_csv
+    t = np.linspace(0, 1, 5)
+    (tmp_path / "plain.csv").write_text("Time,TTDspFA\n" + "".join(f"{a},{2 * a}\n" for a in t))
+    (tmp_path / "units.csv").write_text("Time,TTDspFA\n(s),(m)\n" + "".join(f"{a},{2 * a}\n" for a in t))
+    plain, units = _read_csv(tmp_path / "plain.csv"), _read_csv(tmp_path / "units.csv")
+    pd.testing.assert_frame_equal(plain, units)
+    assert units.attrs["units"] == {"Time": "s", "TTDspFA": "m"} and plain.attrs["units"] == {}
+
+
+def test_study_file_reference_is_generated_from_the_schema():
+    """docs/study-file.md is what `modesel docs study-file` prints (a fresh
+    process: the tests register fake families in this one)."""
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    text = subprocess.run([sys.executable, "-m", "modesel", "docs", "study-file"], cwd=REPO, env=env,
+                          capture_output=True, text=True, check=True).stdout
+    assert (REPO / "docs" / "study-file.md").read_text() == text, \
+        "docs/study-file.md is stale: run `modesel docs study-file > docs/study-file.md`"
+    for t in schema.TABLES:
+        for k in t.keys:
+            assert f"| `{k.name}` |" in text
+    from modesel.study.metrics import METRICS
+    assert all(m.formula for m in METRICS.values())
+
+
+def test_validator_allows_exactly_the_schema_keys(tmp_path, capsys):
+    """spec.py takes its allowed keys and defaults from schema.py."""
+    from modesel.study.spec import parse_study
+    study = make_study(tmp_path, n_trials=2)
+    parsed = parse_study(study.read_text(), study)
+    assert parsed.search.sampler == schema.default("search", "sampler")
+    assert parsed.run.n_jobs == schema.default("run", "n_jobs")
+    assert parsed.budget.keep_searching_trials == schema.default("budget", "keep_searching_trials")
+    assert parsed.compare.metric == schema.default("compare", "metric")
+    study.write_text(study.read_text().replace("[run]", "[run]\nnot_a_key = 1"))
+    assert main(["run", str(study), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "run.not_a_key: unknown key" in err and err.count("\n") == 1
+
+
+def test_run_help_points_to_the_study_file_reference(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert "docs/study-file.md" in capsys.readouterr().out
+
+
+def test_simulate_csv_units_dofs_effects_and_inert_wind(tmp_path, capsys):
+    scene = tmp_path / "wind_no_aero.toml"
+    scene.write_text((REPO / "studies/scenes/paper_2dof_tower_shaft.toml").read_text()
+                     .replace("[effects]", "[effects]\nwind = { speed = 8.0 }"))
+    out = tmp_path / "o.csv"
+    assert main(["simulate", str(scene), "--tmax", "0.5", "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    df = read_with_units(out)
+    units = dict(df.columns)
+    assert units["Time"] == "(s)" and units["TTDspFA"] == "(m)" and units["RotSpeed"] == "(rpm)"
+    assert "2 DOFs (TFA1, GeAz)" in captured.out and "effects evaluated: " in captured.out
+    assert "x real time" in captured.out
+    assert "wind" in captured.out.split("effects evaluated: ")[1].split(";")[0]
+    assert "neither aero nor tower_drag is on: the wind loads nothing" in captured.err
+
+
+def test_progress_bar_and_simulation_line(capsys):
+    from modesel.study.search.progress import Progress, SimulationProgress, speed_text
+    bar = Progress(4, "s", enabled=True, quiet=False)
+    bar.set(2, 0.0123, 1)
+    bar.close()
+    err = capsys.readouterr().err
+    assert "2/4 trials" in err and "best error 1.23 %" in err and "1 failed" in err and "ETA" in err
+    quiet = Progress(4, "s", enabled=False)          # --quiet: no bar, no compile notice
+    quiet.set(1, 0.5, 0)
+    quiet.close()
+    assert quiet.bar is None and capsys.readouterr().err == ""
+    # 20 s simulated in 87 s: two significant digits, not "0x"
+    assert speed_text(20.0, 87.0) == "0.23x real time"
+    line = SimulationProgress("scene: ", enabled=True).line(5.0, 20.0, 10.0)
+    assert line == "scene: simulated 5 of 20 s, 0.5x real time, ETA 30 s"
