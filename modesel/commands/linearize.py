@@ -53,9 +53,9 @@ def run(args) -> int:
         sweep.append((rpm, modes))
         results.append((rpm, [dict(m.as_dict(), kind=mode_kind(m)[1]) for m in modes]))
     if args.plot:
-        from modesel.study.report import campbell_figure
+        from modesel.study.report import campbell_figure, standalone_svg
         svg = campbell_figure(sweep, f"{scene.name}" + (f" ({ms.label()})" if ms else ""))
-        atomic_write_text(args.plot, svg + "\n")
+        atomic_write_text(args.plot, standalone_svg(svg) + "\n")
     if args.json:
         if args.rpm:
             out = {"campbell": [{"rpm": rpm, "modes": modes} for rpm, modes in results]}

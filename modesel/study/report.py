@@ -86,6 +86,13 @@ def _svg(fig) -> str:
     return text
 
 
+def standalone_svg(svg: str) -> str:
+    """An inline figure (`_svg`) as a standalone .svg file: with the XML
+    namespaces that HTML5 leaves implicit."""
+    return svg.replace("<svg ", '<svg xmlns="http://www.w3.org/2000/svg" '
+                       'xmlns:xlink="http://www.w3.org/1999/xlink" ', 1)
+
+
 def _figure(w=7.0, h=4.0):
     import matplotlib
     matplotlib.use("Agg", force=False)
@@ -345,15 +352,27 @@ def campbell_figure(sweep, title: str = "") -> str:
     fig, ax = _figure(7.5, 4.5)
     curves: dict = {}
     for rpm, modes in sweep:
-        for m in modes:
-            if not np.isfinite(m.frequency_hz) or abs(m.damping_ratio) >= 0.9:
-                continue
-            curves.setdefault(mode_kind(m), []).append((rpm, m.frequency_hz))
+        kept = [m for m in modes if np.isfinite(m.frequency_hz) and abs(m.damping_ratio) < 0.9]
+        kinds = [mode_kind(m) for m in kept]
+        # a parked rotor's cyclic pair (cos, sin) is where the whirl branches start:
+        # the lower one continues as backward whirl, the higher as forward whirl
+        for base in {b for b, k in kinds if k.startswith("cyclic")}:
+            pair = sorted((kept[i].frequency_hz, i) for i, (b, k) in enumerate(kinds)
+                          if b == base and k.startswith("cyclic"))
+            if len(pair) == 2:
+                kinds[pair[0][1]] = (base, "backward whirl")
+                kinds[pair[1][1]] = (base, "forward whirl")
+        for m, kind in zip(kept, kinds):
+            curves.setdefault(kind, []).append((rpm, m.frequency_hz))
+    import matplotlib.pyplot as plt
     styles = {"collective": "-", "backward whirl": "--", "forward whirl": ":"}
+    bases = sorted({base for base, _ in curves})
+    palette = plt.get_cmap("tab10" if len(bases) <= 10 else "tab20")
+    colours = {base: palette(i % palette.N) for i, base in enumerate(bases)}
     for (base, kind), pts in sorted(curves.items()):
         pts = sorted(pts)
         x, y = zip(*pts)
-        ax.plot(x, y, styles.get(kind, "-"), marker="o", ms=3, lw=1.2,
+        ax.plot(x, y, styles.get(kind, "-"), marker="o", ms=3, lw=1.2, color=colours[base],
                 label=f"{base} {kind}".strip())
     rpms = [r for r, _ in sweep]
     top = max(rpms) if rpms else 1.0
