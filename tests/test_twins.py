@@ -23,7 +23,7 @@ import pytest
 from modesel.aero import BemOptions, BemSolver, Wind, skew_angles
 from modesel.turbine.aerodyn import read_aerodyn
 from modesel.aero.tower_drag import drag_forces
-from modesel.aero.wind import COLUMNS, wind_velocity
+from modesel.aero.wind import COLUMNS, N_PARAMS, wind_params, wind_velocity
 from modesel.model.effects.aero import inflow
 from modesel.multibody.kane import KaneEquations
 from modesel.multibody.kinematics import PointSet
@@ -61,7 +61,8 @@ def random_rotation(rng):
 @twin("wind_profile")
 def wind_profile(rng):
     """InflowWind's uniform wind: aero.wind.Wind.vector (numpy) / wind_velocity (numba),
-    every column of the table in play (shears, direction, upflow, gust, time)."""
+    every column of the table in play (shears, direction, upflow, gust, time); its
+    parameters in time: Wind.params (numpy) / wind_params (numba)."""
     n = 200
     z = np.concatenate([[0.0, -3.0], rng.uniform(-10.0, 200.0, n)])
     x, y = rng.uniform(-10.0, 10.0, n + 2), rng.uniform(-70.0, 70.0, n + 2)
@@ -75,6 +76,10 @@ def wind_profile(rng):
         p = wind.params(t)
         compiled = np.array([wind_velocity(p, xk, yk, zk) for xk, yk, zk in zip(x, y, z)])
         out.append((f"V(t={t})", wind.vector(z, t, x, y), compiled))
+    for t in (-1.0, 0.0, 2.7, 5.0, 9.9, 12.0, 30.0):
+        p = np.empty(N_PARAMS)
+        wind_params(wind.table, wind.reference_height, wind.reference_length, t, p)
+        out.append((f"params(t={t})", wind.params(t), p))
     return out
 
 
@@ -250,6 +255,74 @@ def symbolic(rng):
                 (f"M kernel #{k}", M_ker, M_sym), (f"F kernel #{k}", F_ker, F_sym),
                 (f"M module #{k}", M_sym, module.mass_matrix(q, qd, t=t)),
                 (f"F module #{k}", F_sym, module.forcing(q, qd, t=t))]
+    return out
+
+
+# ----------------------------------------------------------------------------- compiled loads
+
+def turbine_with(effects, free=("GeAz", "DrTr"), modes=None):
+    """NREL 5-MW with `effects` (the scene front), rotor free."""
+    d = {"turbine": "nrel5mw",
+         "modes": modes or {"tower_fa": {"family": "elastodyn", "count": 2},
+                            "tower_ss": {"family": "elastodyn", "count": 1},
+                            "tower_torsion": {"family": "linear", "count": 1},
+                            "blade_flap": {"family": "elastodyn", "count": 2},
+                            "blade_edge": {"family": "elastodyn", "count": 1}},
+         "dofs": {"free": list(free)}, "initial": {"RotSpeed": 9.0},
+         "effects": {"gravity": True, **effects}}
+    return build(scene_from_dict(d), reactions=True)
+
+
+def rhs_pairs(built, rng, what, n=3, speeds=(0.3, 1.6)):
+    """(M, F) of the compiled right-hand side (`Built.rhs`, every effect's loads
+    inside the kernel) / the reference: the effects' Python `__call__` with the
+    numpy Kane equations (`KaneEquations.evaluate_reference`) and with the
+    kernel (`Built.M_F`), in the same sequence of calls (latched switches)."""
+    rhs = built.rhs()
+    assert rhs.has_loads, "the effects' loads must run inside the kernel"
+    names = list(built.model.system.free)
+    out = []
+    for k in range(n):
+        q = built.q0 + rng.normal(size=len(names)) * 0.05
+        qd = rng.normal(size=len(names)) * 0.05
+        if "GeAz" in names:
+            q[names.index("GeAz")] = rng.uniform(0.0, 2 * np.pi)
+            qd[names.index("GeAz")] = rng.uniform(*speeds)
+        t = rng.uniform(0.0, 30.0)
+        M, F = rhs(t, q, qd)
+        q_all, qd_all, _ = built.eq.full_state(q, qd, t)
+        gen, nodes = built.loads(t, q_all, qd_all)
+        Mr, Fr = built.eq.evaluate_reference(q, qd, t, node_forces=nodes or None, generalized=gen)
+        Mk, Fk = built.M_F(t, q, qd)          # the same loads again (latches already set)
+        out += [(f"{what} M #{k}", Mr, M), (f"{what} F #{k}", Fr, F), (f"{what} F kernel #{k}", Fk, F)]
+    return out
+
+
+@twin("compiled_loads")
+def compiled_loads(rng):
+    """The whole right-hand side with every load effect: Built.rhs (loads packed into the
+    kernel, model/effects/compiled.py) / the effects' Python __call__ + KaneEquations
+    (numpy reference and kernel): wind (steady with shear; time series; an InflowWind
+    table), BEM aero, tower drag, generator laws (NREL 5-MW, constant, ServoDyn
+    simple variable-speed and induction with their switches)."""
+    out = rhs_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
+                                  "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
+    out += rhs_pairs(turbine_with({"wind": {"time_series": [[0.0, 6.0], [10.0, 14.0], [20.0, 9.0]],
+                                            "direction_deg": 8.0},
+                                   "aero": {"skew": True}, "tower_drag": True,
+                                   "generator": {"mode": "constant", "torque": 3.0e4}},
+                                  modes={"tower_fa": {"family": "elastodyn", "count": 1},
+                                         "blade_flap": {"family": "elastodyn", "count": 1}}),
+                     rng, "series wind, skew, rigid edge")
+    out += rhs_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
+                                                 "rated_torque": 43093.55, "region2_k": 0.0255764,
+                                                 "slip_percent": 10.0, "on_speed_rpm": 900.0}}),
+                     rng, "ServoDyn VSContrl 1", n=6, speeds=(0.5, 1.5))
+    out += rhs_pairs(turbine_with({"generator": {"mode": "induction", "sync_speed_rpm": 1200.0,
+                                                 "rated_torque": 4.0e4, "slip_percent": 1.0,
+                                                 "pullout_ratio": 2.0, "off_time": 20.0,
+                                                 "off_when_no_power": True}}),
+                     rng, "ServoDyn induction", n=6, speeds=(1.1, 1.4))
     return out
 
 

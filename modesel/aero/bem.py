@@ -358,6 +358,12 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, grid, value, slo
     return worst
 
 
+#: the compiled element loop, public for the compiled integration loop
+#: (`modesel.model.effects.compiled`), which calls it with the arguments that
+#: `BemSolver.solve_into` passes
+solve_elements = _solve_elements
+
+
 # --------------------------------------------------------------------------- front
 
 _FIELDS = ("a", "a_prime", "phi", "alpha", "cl", "cd", "cm", "w", "loss", "f_n", "f_t", "m")

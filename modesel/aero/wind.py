@@ -162,3 +162,45 @@ def wind_velocity(p, x, y, z):
     v1r = cv * v1 - sv * vv
     w = sv * v1 + cv * vv
     return v1r * ch, -v1r * sh_, w
+
+
+@njit(cache=True)
+def wind_params(table, reference_height, reference_length, t, out):
+    """Compiled twin of `Wind.params`: the parameters of `wind_velocity` at
+    time t [s] into out (N_PARAMS,) from the (N, 9) table (linear
+    interpolation in time as np.interp, ends held)."""
+    n = table.shape[0]
+    row = 0
+    frac = -1.0
+    if n > 1 and t > table[0, 0]:
+        if t >= table[n - 1, 0]:
+            row = n - 1
+        else:
+            lo, hi = 0, n - 1
+            while hi - lo > 1:
+                mid = (lo + hi) >> 1
+                if table[mid, 0] <= t:
+                    lo = mid
+                else:
+                    hi = mid
+            row = lo
+            frac = t - table[lo, 0]
+    v = np.empty(9)
+    for c in range(9):
+        if frac < 0.0:
+            v[c] = table[row, c]
+        else:
+            slope = (table[row + 1, c] - table[row, c]) / (table[row + 1, 0] - table[row, 0])
+            v[c] = slope * frac + table[row, c]
+    out[0] = v[1]
+    out[1] = np.cos(v[2])
+    out[2] = np.sin(v[2])
+    out[3] = v[3]
+    out[4] = v[4]
+    out[5] = v[5]
+    out[6] = v[6]
+    out[7] = v[7]
+    out[8] = np.cos(v[8])
+    out[9] = np.sin(v[8])
+    out[10] = reference_height
+    out[11] = reference_length

@@ -26,9 +26,14 @@ class CompiledRHS:
     evaluates all coordinates: every row with all_rows=True, else only the
     rows of free and prescribed coordinates (the others are zero);
     `reactions` (all_rows) gives the reaction loads of fixed coordinates at
-    many output times in one compiled call."""
+    many output times in one compiled call.
 
-    def __init__(self, eq, linear=(), *, all_rows=False):
+    loads: None, or (numba cfunc of `kernel.LOADS_SIG`, ints, floats, state):
+    the effects' loads evaluated inside the kernel at every right-hand side
+    (`modesel.model.effects.compiled` packs them); state is modified in
+    place (scratch and latched switches)."""
+
+    def __init__(self, eq, linear=(), *, all_rows=False, loads=None):
         self.eq = eq
         self.packed = eq.packed_full if all_rows else eq.packed_free
         n, nf = eq.n_all, len(eq.free_idx)
@@ -41,12 +46,18 @@ class CompiledRHS:
         n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
         self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
                      eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
-                     np.zeros((n_nodes, 3)), np.zeros(eq.n_bodies, np.int64))
+                     np.zeros((n_nodes, 3)), np.zeros(eq.n_bodies, np.int64),
+                     _loads_tuple(loads))
         self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
         self.n_free = nf
         self._x = np.zeros(2 * nf)
         self._out = np.zeros(2 * nf)
         self._no_bounds = np.full(nf, np.inf)
+
+    @property
+    def has_loads(self) -> bool:
+        """Whether effects' loads act inside the kernel."""
+        return self.prob[9] is not None
 
     def _problem_at(self, t):
         """(time passed to the kernel, prob): prescribed callables are
@@ -78,7 +89,7 @@ class CompiledRHS:
         {flexible body name: (N, 3) inertial forces [N]}."""
         n = self.eq.n_all
         gen = np.zeros(n) if generalized is None else np.asarray(generalized, float)
-        fnodes, flag = self.prob[7], self.prob[8]
+        fnodes, flag = np.zeros_like(self.prob[7]), np.zeros_like(self.prob[8])
         if node_forces:
             fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
             for name, f in node_forces.items():
@@ -124,3 +135,12 @@ class CompiledRHS:
                                                        float(max_step), np.asarray(bounds, float), tuple(table),
                                                        self.prob, self.rwork, p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out]
+
+
+def _loads_tuple(loads):
+    """(cfunc, ints, floats, state) with the kernel's dtypes, or None."""
+    if loads is None:
+        return None
+    fn, ints, floats, state = loads
+    return (fn, np.ascontiguousarray(ints, np.int64), np.ascontiguousarray(floats, float),
+            np.ascontiguousarray(state, float))

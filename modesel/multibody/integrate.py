@@ -117,7 +117,7 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
     if method == COMPILED_DOP853:
         if not runs_compiled(rhs_M_F):
             raise ModeselError(f"{COMPILED_DOP853} needs a compiled right-hand side with prescribed motion "
-                               "polynomial in time (no load effect acting at every step)",
+                               "polynomial in time (and every load effect in compiled form)",
                                field="solver.method")
         return _integrate_compiled(rhs_M_F, x0, t_eval, float(tmax), rtol, atol, max_step, qb, stiffness_ratio)
     compiled = isinstance(rhs_M_F, CompiledRHS)

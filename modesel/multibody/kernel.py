@@ -29,8 +29,16 @@ only by a change of its own file); the Python front is `compiled.CompiledRHS`.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
+from numba.core.errors import NumbaExperimentalFeatureWarning
+
+# the loads function is a first-class function argument (one compiled loop for
+# every scene, cached on disk); numba calls the feature experimental
+warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)
 
 # reassociation and FMA for the node sums; no finite-math assumption, so NaN
 # and inf still propagate to the divergence checks
@@ -45,6 +53,21 @@ SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
 # body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
 OFF, R0, MASS, CM, INERTIA, AXIS, POLAR, SH_E = 0, 3, 12, 13, 16, 25, 28, 37
 N_FLOAT = 40
+
+
+# signature of a loads function (the effects' loads inside the compiled loop):
+# (t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state) -> status;
+# R, vec: the body frames of `kinematics` at (q_all, qd_all); it adds
+# generalised forces to gen (n_all,) [N, N m] and inertial node forces [N] to
+# fnodes (rows of the packed node layout), setting fflag[b] = 1 for each body it
+# loads (fnodes and fflag are zero on entry); ints, floats: its packed
+# parameters; state: its scratch and latched state. Status OK or NON_FINITE_ACC.
+# It must be a numba cfunc (typed as a first-class function, so the loop that
+# calls it is compiled once for every scene and cached); a problem without
+# loads passes None instead and gets its own specialisation without the call.
+_F1, _F2, _F3, _I1 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1]
+LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1)
+LOADS_TYPE = types.FunctionType(LOADS_SIG)
 
 
 # ------------------------------------------------------------------ small helpers
@@ -510,12 +533,14 @@ def _project(b, ne, data, work, Mb, fy, M, F):
 
 
 @njit(cache=True)
-def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F):
+def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F, with_kinematics=True):
     """M (n x n) and F (n) over all coordinates (eq. 22 before restriction);
-    rows/columns of inactive coordinates are left zero."""
+    rows/columns of inactive coordinates are left zero. with_kinematics=False:
+    the frames in `work` are already those of (q, qd)."""
     bi = data[0]
     Mb, fy = work[8], work[9]
-    kinematics(q, qd, data, work)
+    if with_kinematics:
+        kinematics(q, qd, data, work)
     n = q.shape[0]
     for i in range(n):
         F[i] = gen[i]
@@ -606,6 +631,32 @@ def lu_solve(A, x):
     return True
 
 
+def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
+    """assemble, after the effects' loads when `loads` is not None (numba
+    specialises on it, `_loads_and_assemble_impl`); returns a status code."""
+
+
+@overload(_loads_and_assemble, jit_options={"cache": True})
+def _loads_and_assemble_impl(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
+    if isinstance(loads, types.NoneType):
+        def plain(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
+            assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
+            return OK
+        return plain
+
+    def loaded(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
+        fn, l_int, l_flt, l_state = loads
+        kinematics(q_all, qd_all, data, work)
+        fnodes[:, :] = 0.0
+        fflag[:] = 0
+        code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state)
+        if code != OK:
+            return code
+        assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
+        return OK
+    return loaded
+
+
 @njit(cache=True)
 def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     """Equations of the free coordinates at time t and state x = [q, qd]:
@@ -619,8 +670,10 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
     gravity, linear (row, col) and (stiffness, damping) of generalised
     spring-dampers gen_row -= k q_col + c qd_col, node forces, node-force
-    flag per body); rwork = (rows q_all, qd_all, qdd_p, gen; M; F; Mf; Ff)."""
-    free, presc, pcoef, fixed, gvec, lin_idx, lin_kc, fnodes, fflag = prob
+    flag per body, loads = None or (cfunc of LOADS_SIG, ints, floats, state):
+    the effects' loads);
+    rwork = (rows q_all, qd_all, qdd_p, gen; M; F; Mf; Ff)."""
+    free, presc, pcoef, fixed, gvec, lin_idx, lin_kc, fnodes, fflag, loads = prob
     st, M, F, Mf, Ff = rwork[0], rwork[1], rwork[2], rwork[3], rwork[4]
     q_all, qd_all, qddp, gen = st[0], st[1], st[2], st[3]
     nf = free.shape[0]
@@ -647,7 +700,9 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         qddp[i] = pcoef[k, 2]
     for k in range(lin_idx.shape[0]):
         gen[lin_idx[k, 0]] -= lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
-    assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
+    code = _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
+    if code != OK:
+        return code, -1
     for a in range(nf):
         v = F[free[a]]
         for k in range(presc.shape[0]):

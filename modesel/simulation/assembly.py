@@ -6,10 +6,11 @@ constructed and never evaluated (`effects.select`).
 
 Right-hand side: M(q) qdd = F(q, qd, t) + loads, where the loads are the
 switched-on effects' generalised forces and node forces (effects/base.py).
-A scene whose effects are only linear spring-dampers (drivetrain) or model
-options (damping, pitch, locked generator) integrates in the engine's
-compiled loop; effects with loads at every step (aero, tower drag,
-generator torque) go through `Built.M_F`.
+Every bundled effect runs inside the engine's compiled loop: linear
+spring-dampers (drivetrain) and model options (damping, pitch) through the
+kernel's own arrays, effects with loads at every step (wind, aero, tower
+drag, generator torque) packed by `effects.compiled` (`Built.rhs`).
+`Built.M_F` (Python, per right-hand side) is the reference path.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from modesel.modeset import ModeSet
 from modesel.model.effects import select as select_effects
 from modesel.model.effects.base import BuildSpec
 from modesel.model.template import build_turbine
+from modesel.multibody.compiled import CompiledRHS
 from modesel.multibody.kane import KaneEquations
 from modesel.multibody.system import Prescribed
 from modesel.simulation.equilibrium import static_equilibrium
@@ -124,12 +126,21 @@ class Built:
         gen, nodes = self.loads(t, q_all, qd_all)
         return self.eq.evaluate(q, qd, t, node_forces=nodes or None, generalized=gen)
 
-    def rhs(self):
-        """The right-hand side for `integrate`: compiled when no effect acts
-        at every step, else `M_F`."""
-        if not self.acting and hasattr(self.eq, "compiled_rhs"):
-            return self.eq.compiled_rhs(self.linear)
-        return self.M_F
+    def rhs(self, *, all_rows=False):
+        """The right-hand side for `integrate`: a `CompiledRHS` with the
+        effects' loads packed into the compiled loop (`effects.compiled`;
+        each call packs a fresh state), else `M_F` (an effect without a
+        compiled form)."""
+        if not hasattr(self.eq, "compiled_rhs"):
+            return self.M_F
+        if not self.acting:
+            return self.eq.compiled_rhs(self.linear, all_rows=all_rows)
+        from modesel.model.effects.compiled import pack_loads
+        packed = self.eq.packed_full if all_rows else self.eq.packed_free
+        loads = pack_loads(self, packed.node_start)
+        if loads is None:
+            return self.M_F
+        return CompiledRHS(self.eq, self.linear, all_rows=all_rows, loads=loads)
 
 
 def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:

@@ -164,6 +164,30 @@ class BladeAerodynamics(Effect):
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
 
+    def compile_loads(self, built, packer, node_start):
+        """Pack this effect for the compiled loop (`effects.compiled`): the
+        same arrays `__call__` uses, and `solve_into`'s arguments."""
+        from modesel.model.effects.compiled import AERO, point_set_ints
+        B, M = self.r.shape
+        N = self.forces.shape[1]
+        s, buf = self.bem.solver, self.bem.buffers
+        o = s.options
+        grid, value, slope = s.polars.arrays
+        o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
+                              o.tolerance])
+        o_elem = packer.add(np.concatenate([self.r.ravel(), np.add(self.pitch, buf.twist).ravel(),
+                                            buf.chord.ravel()]))
+        o_T = packer.add(self.transfer)
+        o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
+        o_scr = packer.scratch(B * M * 3 * 2 + 4 * B * M + 6 * B + 3 + 13 * B * M + B * N * 3)
+        ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr]
+        ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
+        for st in self.stations:
+            ints += point_set_ints(packer, st)
+        ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
+                 o.skew_correction, o.max_iterations]
+        packer.record(AERO, ints)
+
     def channels(self, built):
         """AeroDyn's rotor channels (AeroDyn_IO.f90): RtAeroFxh [N] and
         RtAeroMxh [N m], the blade loads' force along and moment about the

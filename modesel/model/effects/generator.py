@@ -53,8 +53,10 @@ GenPwr = T w efficiency (94.4 %, Jonkman 2009 Table 1-1).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from modesel.model.effects.base import Effect, Option
+from modesel.turbine import servodyn as _sd
 
 CUT_IN = 70.16224            # rad/s, VS_CtInSp (670 rpm)
 REGION2_START = 91.21091     # rad/s, VS_Rgn2Sp (871 rpm)
@@ -194,6 +196,80 @@ class Generator(Effect):
             return {}
         T, P = self.last
         return {"GenTq": T / 1e3, "GenPwr": P / 1e3}
+
+    def compile_loads(self, built, packer, node_start):
+        """Pack this effect for the compiled loop (`effects.compiled`); the
+        latches start as this effect's."""
+        from modesel.model.effects.compiled import GENERATOR
+        law, lp, sw = self.compiled_parameters()
+        o_f = packer.add(np.concatenate([[self.ratio], lp, sw]))
+        o_s = packer.scratch(4)
+        self.latch_slot = o_s
+        packer.record(GENERATOR, [self.i, law, o_f, o_s])
+        packer.set_state(o_s, [float(self.online_latched), float(self.off_latched)])
+
+    def compiled_parameters(self):
+        """(law code, law parameters (6,), switches (6,)) of `switched_torque`
+        for this effect's options (module doc; nan: switch not given)."""
+        o = self.options
+        mode = o["mode"]
+        law = LAWS[mode]
+        lp = np.zeros(6)
+        if mode == "constant":
+            lp[0] = o["torque"]
+        elif mode in self.SERVODYN:
+            lp[:len(self.law[1])] = self.law[1]
+        nan = float("nan")
+        sw = np.array([o["efficiency"], nan if o["on_time"] is None else o["on_time"],
+                       nan if o["on_speed_rpm"] is None else o["on_speed_rpm"],
+                       nan if o["off_time"] is None else o["off_time"],
+                       1.0 if o["off_when_no_power"] else 0.0, 1.0 if mode in self.SERVODYN else 0.0])
+        return law, lp, sw
+
+
+#: law codes of `switched_torque`
+LAWS = {"constant": 0, "variable_speed": 1, "simple_variable_speed": 2, "induction": 3}
+_variable_speed_torque = njit(cache=True)(variable_speed_torque)
+_simple_vs_torque = njit(cache=True)(_sd.simple_vs_torque)
+_induction_torque = njit(cache=True)(_sd.induction_torque)
+_electrical_power = njit(cache=True)(_sd.electrical_power)
+
+
+@njit(cache=True)
+def switched_torque(t, w, law, lp, sw, latch):
+    """Compiled twin of `Generator.__call__`'s torque and power (T [N m],
+    P [W]) at time t [s] and HSS speed w [rad/s]: law (`LAWS`) with
+    parameters lp (constant: torque; ServoDyn laws: their arguments after
+    w), sw = (efficiency, on_time, on_speed_rpm, off_time,
+    off_when_no_power, ServoDyn switching on) with nan for a switch not
+    given, latch = (on-speed latched, off latched), updated in place. The
+    laws themselves are the same functions as the Python path's, compiled."""
+    if law == 0:
+        T = lp[0]
+    elif law == 1:
+        T = _variable_speed_torque(w)
+    elif law == 2:
+        T = _simple_vs_torque(w, lp[0], lp[1], lp[2], lp[3], lp[4], lp[5])
+    else:
+        T = _induction_torque(w, lp[0], lp[1], lp[2], lp[3])
+    if sw[5] == 0.0:
+        return T, T * w * sw[0]
+    if not np.isnan(sw[3]) and t >= sw[3]:
+        return 0.0, 0.0
+    if latch[1] != 0.0:
+        return 0.0, 0.0
+    if not np.isnan(sw[2]):
+        if latch[0] == 0.0 and w * 30.0 / np.pi >= sw[2]:
+            latch[0] = 1.0
+        if latch[0] == 0.0:
+            return 0.0, 0.0
+    elif t < (0.0 if np.isnan(sw[1]) else sw[1]):
+        return 0.0, 0.0
+    P = _electrical_power(T, w, sw[0])
+    if sw[4] != 0.0 and P <= 0.0:
+        latch[1] = 1.0
+        return 0.0, 0.0
+    return T, P
 
 
 EFFECT = Generator

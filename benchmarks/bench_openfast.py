@@ -1,0 +1,91 @@
+"""`modesel simulate` against OpenFAST on the same case, whole process:
+studies/data/openfast/steady_08/steady_08.fst (NREL 5-MW, 8 m/s, AeroDyn
+BEM, ServoDyn VSContrl 1, 15 DOFs) for 20 s and 100 s.
+
+Both run as separate processes one after the other (modesel first once,
+untimed, so numba's on-disk cache is warm). OpenFAST runs on a copy of the
+case folder with TMax replaced; its executable is $OPENFAST or
+../shared/tools/openfast/openfast relative to the repository. Without it,
+the OpenFAST wall time of the bundled log (`steady_08.log`, 100 s) is
+reported instead and scaled to 20 s.
+
+    python3 benchmarks/bench_openfast.py [--tmax 20 100]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CASE = ROOT / "studies" / "data" / "openfast"
+FST = CASE / "steady_08" / "steady_08.fst"
+
+
+def openfast_exe():
+    exe = os.environ.get("OPENFAST") or str(ROOT.parent / "shared" / "tools" / "openfast" / "openfast")
+    return exe if Path(exe).is_file() else None
+
+
+def run_modesel(tmax, out):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(FST), "--tmax", str(tmax),
+                           "--out", str(out)], env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if proc.returncode:
+        raise SystemExit(proc.stderr)
+    return wall, proc.stdout.strip()
+
+
+def run_openfast(exe, tmax, folder):
+    work = Path(folder) / "openfast"
+    shutil.copytree(CASE, work)
+    fst = work / "steady_08" / "steady_08.fst"
+    text = re.sub(r"^\s*[-+0-9.eE]+(\s+TMax)", rf"{tmax}\1", fst.read_text(), flags=re.M)
+    fst.write_text(text)
+    start = time.perf_counter()
+    proc = subprocess.run([exe, fst.name], cwd=fst.parent, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    shutil.rmtree(work)
+    if proc.returncode:
+        raise SystemExit(proc.stdout[-2000:])
+    return wall
+
+
+def logged_openfast(tmax):
+    """OpenFAST's own 'Total Real Time' [s] of the bundled 100-s log, scaled to tmax."""
+    log = (FST.parent / "steady_08.log").read_text(errors="replace")
+    m = re.search(r"Total Real Time:\s*([0-9.]+)\s*seconds", log)
+    return None if m is None else float(m.group(1)) * tmax / 100.0
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--tmax", type=float, nargs="+", default=[20.0, 100.0])
+    args = p.parse_args(argv)
+    exe = openfast_exe()
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "modesel.csv"
+        run_modesel(1.0, out)                                  # warm numba's cache
+        print(f"{'tmax [s]':>9} {'modesel [s]':>12} {'OpenFAST [s]':>13} {'ratio':>6}  source")
+        for tmax in args.tmax:
+            wall, line = run_modesel(tmax, out)
+            if exe:
+                ref, source = run_openfast(exe, tmax, folder), "OpenFAST run"
+            else:
+                ref, source = logged_openfast(tmax), "OpenFAST log (scaled)"
+            ratio = ref / wall if ref else float("nan")
+            print(f"{tmax:>9.0f} {wall:>12.2f} {ref or float('nan'):>13.2f} {ratio:>6.2f}  {source}")
+            print(f"          {line}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

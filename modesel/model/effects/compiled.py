@@ -1,0 +1,238 @@
+"""The effects' loads inside the compiled integration loop.
+
+`pack_loads(built, node_start)` packs every switched-on effect that acts at
+every right-hand side into two flat arrays (ints, floats) plus a state
+array (scratch and latched switches), and `effect_loads` (a numba cfunc
+of `kernel.LOADS_SIG`, passed to the kernel as a first-class function, so
+one compiled loop serves every scene with loads and stays in numba's
+on-disk cache)
+evaluates them by a dispatch on the effect kind. The physics are the same
+compiled functions the Python path (`Built.M_F`, effects' `__call__`)
+calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
+`effects.aero.inflow`/`distribute`, `aero.bem.solve_elements`,
+`aero.tower_drag.drag_forces`, `effects.generator.switched_torque`; the
+Python path stays the reference (tests/test_twins.py holds the two right-hand
+sides equal).
+
+Layout: ints[0] = number of records; each record starts with (kind, length
+in ints) followed by its kind's ints, which hold offsets into floats and
+state. state[0:N_PARAMS] is the wind at the current time (the wind record,
+first, writes it).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import cfunc, njit
+
+from modesel.aero.bem import solve_elements
+from modesel.aero.tower_drag import drag_forces
+from modesel.aero.wind import N_PARAMS, wind_params
+from modesel.model.effects.aero import distribute, inflow
+from modesel.model.effects.generator import switched_torque
+from modesel.multibody.kernel import LOADS_SIG
+from modesel.multibody.kinematics import points
+
+WIND, AERO, TOWER_DRAG, GENERATOR = 0, 1, 2, 3
+
+
+class Packer:
+    """Accumulates the ints, floats and state of the load records."""
+
+    def __init__(self):
+        self.ints = [0]
+        self.floats = []
+        self.n_floats = 0
+        self.n_state = N_PARAMS
+        self.initial = {}
+
+    def add(self, array) -> int:
+        """Append an array to floats; its offset."""
+        a = np.ascontiguousarray(array, float).ravel()
+        off = self.n_floats
+        self.floats.append(a)
+        self.n_floats += a.size
+        return off
+
+    def scratch(self, size) -> int:
+        """Reserve `size` state floats; their offset."""
+        off = self.n_state
+        self.n_state += int(size)
+        return off
+
+    def set_state(self, off, values):
+        """Initial values of state floats from `off`."""
+        self.initial[off] = np.asarray(values, float)
+
+    def record(self, kind, ints):
+        self.ints += [kind, len(ints) + 2] + [int(i) for i in ints]
+        self.ints[0] += 1
+
+    def arrays(self):
+        floats = np.concatenate(self.floats) if self.floats else np.zeros(0)
+        state = np.zeros(self.n_state)
+        for off, values in self.initial.items():
+            state[off:off + len(values)] = values
+        return np.array(self.ints, np.int64), np.ascontiguousarray(floats, float), state
+
+
+def point_set_ints(packer, ps):
+    """Ints of a `kinematics.PointSet` (body, count, ne, floats offset, idx...)."""
+    off = packer.add(ps.s0)
+    packer.add(ps.Phi)
+    packer.add(ps.S)
+    packer.add(ps.axis)
+    return [ps.body, len(ps.s0), len(ps.idx), off] + list(ps.idx)
+
+
+def pack_loads(built, node_start):
+    """(effect_loads, ints, floats, state) for `CompiledRHS(loads=...)`, or
+    None when an acting effect has no compiled form (`compile_loads`).
+    node_start: {flexible body: (first node, count)} of the packed arrays."""
+    acting = built.acting
+    if not acting:
+        return None
+    if not all(hasattr(e, "compile_loads") for e in acting):
+        return None
+    packer = Packer()
+    wind = built.effect("wind")
+    if wind is not None and hasattr(wind, "field"):
+        w = wind.field
+        packer.record(WIND, [packer.add(w.table), len(w.table), packer.add([w.reference_height,
+                                                                           w.reference_length])])
+    for e in acting:
+        e.compile_loads(built, packer, node_start)
+    return (effect_loads,) + packer.arrays()
+
+
+@njit(cache=True)
+def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
+    """Positions and velocities of the point set whose ints start at p;
+    returns the number of ints it used."""
+    body, m, ne, off = ints[p], ints[p + 1], ints[p + 2], ints[p + 3]
+    s0 = floats[off:off + 3 * m].reshape((m, 3))
+    off += 3 * m
+    Phi = floats[off:off + 3 * m * ne].reshape((m, 3, ne))
+    off += 3 * m * ne
+    S = floats[off:off + m * ne * ne].reshape((m, ne, ne))
+    off += m * ne * ne
+    axis = floats[off:off + 3]
+    qe = np.empty(ne)
+    qde = np.empty(ne)
+    for l in range(ne):
+        qe[l] = q_all[ints[p + 4 + l]]
+        qde[l] = qd_all[ints[p + 4 + l]]
+    points(R[body], vec[body], s0, Phi, S, axis, qe, qde, pos, vel)
+    return 4 + ne
+
+
+@njit(cache=True)
+def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
+    """Blade BEM loads (effects/aero.py, steps 1-5)."""
+    hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
+                                                                ints[p + 4], ints[p + 5], ints[p + 6],
+                                                                ints[p + 7], ints[p + 8], ints[p + 9],
+                                                                ints[p + 10])
+    p += 11
+    blades = ints[p:p + B]
+    starts = ints[p + B:p + 2 * B]
+    offset = ints[p + 2 * B:p + 2 * B + B * M]
+    p += 2 * B + B * M
+    o = o_scr
+    pos = state[o:o + B * M * 3].reshape((B, M, 3))
+    o += B * M * 3
+    vel = state[o:o + B * M * 3].reshape((B, M, 3))
+    o += B * M * 3
+    vn = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    vt = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    skew = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    psi = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    en = state[o:o + 3 * B].reshape((B, 3))
+    o += 3 * B
+    et = state[o:o + 3 * B].reshape((B, 3))
+    o += 3 * B
+    vrel = state[o:o + 3]
+    o += 3
+    out = state[o:o + 13 * B * M].reshape((13, B * M))
+    o += 13 * B * M
+    forces = state[o:o + B * N * 3].reshape((B, N, 3))
+    for b in range(B):
+        p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
+    wp = state[0:N_PARAMS]
+    inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel)
+    c = floats[o_const:o_const + 6]
+    r = floats[o_elem:o_elem + B * M]
+    theta = floats[o_elem + B * M:o_elem + 2 * B * M]
+    chord = floats[o_elem + 2 * B * M:o_elem + 3 * B * M]
+    grid = floats[o_pol:o_pol + G]
+    value = floats[o_pol + G:o_pol + G + 3 * PG].reshape((3, PG))
+    slope = floats[o_pol + G + 3 * PG:o_pol + G + 6 * PG].reshape((3, PG))
+    flags = ints[p:p + 7]
+    solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(), grid, value,
+                   slope, c[0], c[1], c[2], c[3], flags[0] != 0, flags[1] != 0, flags[2] != 0,
+                   flags[3] != 0, flags[4] != 0, flags[5] != 0, c[4], c[5], flags[6], out)
+    T = floats[o_T:o_T + N * M].reshape((N, M))
+    distribute(out[9].reshape((B, M)), out[10].reshape((B, M)), en, et, T, forces)
+    for b in range(B):
+        s = starts[b]
+        for i in range(N):
+            for k in range(3):
+                fnodes[s + i, k] += forces[b, i, k]
+        fflag[blades[b]] = 1
+
+
+@njit(cache=True)
+def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
+    """Tower drag node forces (effects/tower_drag.py)."""
+    start, o_coef, o_scr = ints[p], ints[p + 1], ints[p + 2]
+    body, m = ints[p + 3], ints[p + 4]
+    pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
+    vel = state[o_scr + 3 * m:o_scr + 6 * m].reshape((m, 3))
+    force = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
+    _point_kinematics(ints, p + 3, floats, R, vec, q_all, qd_all, pos, vel)
+    drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], force)
+    for i in range(m):
+        for k in range(3):
+            fnodes[start + i, k] += force[i, k]
+    fflag[body] = 1
+
+
+@njit(cache=True)
+def _generator(t, ints, p, floats, state, qd_all, gen):
+    """Generator torque on GeAz (effects/generator.py)."""
+    i, law, o_f, o_s = ints[p], ints[p + 1], ints[p + 2], ints[p + 3]
+    ratio = floats[o_f]
+    lp = floats[o_f + 1:o_f + 7]
+    sw = floats[o_f + 7:o_f + 13]
+    latch = state[o_s:o_s + 2]
+    T, P = switched_torque(t, ratio * qd_all[i], law, lp, sw, latch)
+    gen[i] -= ratio * T
+    state[o_s + 2] = T
+    state[o_s + 3] = P
+
+
+@cfunc(LOADS_SIG, cache=True)
+def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
+    """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`)."""
+    p = 1
+    for _ in range(ints[0]):
+        kind, length = ints[p], ints[p + 1]
+        a = p + 2
+        if kind == WIND:
+            n = ints[a + 1]
+            wind_params(floats[ints[a]:ints[a] + 9 * n].reshape((n, 9)), floats[ints[a + 2]],
+                        floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
+        elif kind == AERO:
+            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
+        elif kind == TOWER_DRAG:
+            _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
+        else:
+            _generator(t, ints, a, floats, state, qd_all, gen)
+        p += length
+    for i in range(gen.shape[0]):
+        if not np.isfinite(gen[i]):
+            return 4                                  # kernel.NON_FINITE_ACC
+    return 0
