@@ -136,6 +136,11 @@ def root_reaction(blade: int, axis: str = "y") -> str:
     return f"RootR{axis}c{blade}"
 
 
+def is_blade_body(body: str) -> bool:
+    """Whether a body of the turbine template ('blade1', 'tower', 'hub', ...) is a blade."""
+    return re.fullmatch(r"blade[1-9]\d*", body) is not None
+
+
 def is_blade_field(field: str) -> bool:
     return field in BLADE_FIELDS
 

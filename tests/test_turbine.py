@@ -156,6 +156,23 @@ def test_stiffness_proportional_damping_equals_modal_with_one_mode():
                            damping({"model": "stiffness_proportional"}, two)["tower"])
 
 
+def test_damping_effect_builds_a_new_model_instead_of_changing_one():
+    """Built objects are not mutated (issue 9): `prepare` returns a new model."""
+    from modesel.model.effects.damping import StructuralDamping
+    from modesel.model.template import build_turbine
+    from modesel.modeset import ModeSet
+    d = {"turbine": "nrel5mw", "modes": {"tower_fa": {"family": "elastodyn", "count": 2}},
+         "dofs": {"free": ["DrTr"]}, "effects": {"damping": {"model": "stiffness_proportional"}}}
+    sc = scene_from_dict(d)
+    model = build_turbine(sc.turbine, ModeSet.from_dict({"fields": d["modes"]}), free=["DrTr"])
+    before = model.system.body("tower").damping.copy()
+    effect = next(e for e in build(sc).effects if isinstance(e, StructuralDamping))
+    new = effect.prepare(model)
+    assert new is not model and new.system is not model.system
+    np.testing.assert_array_equal(model.system.body("tower").damping, before)
+    assert not np.allclose(new.system.body("tower").damping, before)
+
+
 # ----------------------------------------------------------------------------- effects on/off
 
 def test_scene_without_aero_never_evaluates_aerodynamics(monkeypatch):

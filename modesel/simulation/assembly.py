@@ -175,7 +175,7 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
                           pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
                           reactions=spec.reactions, damping=spec.damping)
     for e in effects:
-        e.prepare(model)
+        model = e.prepare(model)
     eq = KaneEquations(model.system)
     q0, qd0 = initial_state(model, init)
     bare = Built(scene, model, eq, q0, qd0, effects)

@@ -116,8 +116,11 @@ class Effect:
     def configure(self, spec: BuildSpec) -> None:
         """Change the build specification (before the bodies exist)."""
 
-    def prepare(self, model) -> None:
-        """Change the bodies (before the equations exist)."""
+    def prepare(self, model):
+        """The turbine model this effect needs, before the equations exist:
+        `model` itself, or a new model with other bodies (never a change of
+        `model` in place)."""
+        return model
 
     def setup(self, built) -> None:
         """Precompute what `__call__` needs (after the equations exist)."""

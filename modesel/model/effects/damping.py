@@ -25,10 +25,14 @@ them), so this effect adds nothing at run time.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.linalg
 
 from modesel.model.effects.base import Effect, Option
+from modesel.multibody.bodies import FlexibleBody
+from modesel.vocabulary import is_blade_body, is_blade_field
 
 
 class StructuralDamping(Effect):
@@ -41,22 +45,29 @@ class StructuralDamping(Effect):
         spec.damping = True
 
     def prepare(self, model):
+        """`model` (modal damping, built in), or a new model whose flexible
+        bodies carry the stiffness-proportional damping matrices."""
         if self.options["model"] != "stiffness_proportional":
-            return
+            return model
         t = model.turbine
-        for body in model.system.flexible_bodies():
-            beam = t.blade if body.name.startswith("blade") else t.tower
+        bodies = []
+        for body in model.system.bodies:
+            if not isinstance(body, FlexibleBody):
+                bodies.append(body)
+                continue
+            beam = t.blade if is_blade_body(body.name) else t.tower
             pos = {d: i for i, d in enumerate(body.dofs)}
             D = np.zeros_like(body.stiffness)
             for fld, dofs in model.field_dofs.items():
-                if fld.startswith("blade"):
+                if is_blade_field(fld):
                     dofs = next((ds for ds in dofs if ds and ds[0] in pos), ())
                 if not dofs or dofs[0] not in pos:
                     continue
                 sl = np.array([pos[d] for d in dofs])
                 K = body.stiffness[np.ix_(sl, sl)]
                 D[np.ix_(sl, sl)] = (2.0 * field_ratio(beam, fld) / fundamental(body, sl)) * K   # eq. 49-50
-            body.damping = D
+            bodies.append(replace(body, damping=D))
+        return replace(model, system=replace(model.system, bodies=bodies))
 
 
 def field_ratio(beam, fld) -> float:
