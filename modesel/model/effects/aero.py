@@ -167,7 +167,7 @@ class BladeAerodynamics(Effect):
     def compile_loads(self, built, packer, node_start):
         """Pack this effect for the compiled loop (`effects.compiled`): the
         same arrays `__call__` uses, and `solve_into`'s arguments."""
-        from modesel.model.effects.compiled import AERO, point_set_ints
+        from modesel.model.effects.packing import AERO, point_set_ints
         B, M = self.r.shape
         N = self.forces.shape[1]
         s, buf = self.bem.solver, self.bem.buffers

@@ -32,56 +32,7 @@ from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
 
-WIND, AERO, TOWER_DRAG, GENERATOR = 0, 1, 2, 3
-
-
-class Packer:
-    """Accumulates the ints, floats and state of the load records."""
-
-    def __init__(self):
-        self.ints = [0]
-        self.floats = []
-        self.n_floats = 0
-        self.n_state = N_PARAMS
-        self.initial = {}
-
-    def add(self, array) -> int:
-        """Append an array to floats; its offset."""
-        a = np.ascontiguousarray(array, float).ravel()
-        off = self.n_floats
-        self.floats.append(a)
-        self.n_floats += a.size
-        return off
-
-    def scratch(self, size) -> int:
-        """Reserve `size` state floats; their offset."""
-        off = self.n_state
-        self.n_state += int(size)
-        return off
-
-    def set_state(self, off, values):
-        """Initial values of state floats from `off`."""
-        self.initial[off] = np.asarray(values, float)
-
-    def record(self, kind, ints):
-        self.ints += [kind, len(ints) + 2] + [int(i) for i in ints]
-        self.ints[0] += 1
-
-    def arrays(self):
-        floats = np.concatenate(self.floats) if self.floats else np.zeros(0)
-        state = np.zeros(self.n_state)
-        for off, values in self.initial.items():
-            state[off:off + len(values)] = values
-        return np.array(self.ints, np.int64), np.ascontiguousarray(floats, float), state
-
-
-def point_set_ints(packer, ps):
-    """Ints of a `kinematics.PointSet` (body, count, ne, floats offset, idx...)."""
-    off = packer.add(ps.s0)
-    packer.add(ps.Phi)
-    packer.add(ps.S)
-    packer.add(ps.axis)
-    return [ps.body, len(ps.s0), len(ps.idx), off] + list(ps.idx)
+from modesel.model.effects.packing import AERO, GENERATOR, TOWER_DRAG, WIND, Packer  # noqa: F401
 
 
 def pack_loads(built, node_start):

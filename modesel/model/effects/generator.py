@@ -200,7 +200,7 @@ class Generator(Effect):
     def compile_loads(self, built, packer, node_start):
         """Pack this effect for the compiled loop (`effects.compiled`); the
         latches start as this effect's."""
-        from modesel.model.effects.compiled import GENERATOR
+        from modesel.model.effects.packing import GENERATOR
         law, lp, sw = self.compiled_parameters()
         o_f = packer.add(np.concatenate([[self.ratio], lp, sw]))
         o_s = packer.scratch(4)

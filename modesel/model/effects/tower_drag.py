@@ -54,7 +54,7 @@ class TowerDragLoads(Effect):
 
     def compile_loads(self, built, packer, node_start):
         """Pack this effect for the compiled loop (`effects.compiled`)."""
-        from modesel.model.effects.compiled import TOWER_DRAG, point_set_ints
+        from modesel.model.effects.packing import TOWER_DRAG, point_set_ints
         m = len(self.coef)
         ints = [node_start["tower"][0], packer.add(self.coef), packer.scratch(9 * m)]
         packer.record(TOWER_DRAG, ints + point_set_ints(packer, self.nodes))
