@@ -89,7 +89,8 @@ def _figure(w=7.0, h=4.0):
 def pareto_figure(table: pd.DataFrame, front: pd.DataFrame, study, featured: dict) -> str:
     fig, ax = _figure()
     done = table[(table["status"] == "COMPLETE") & table["duplicate_of"].isna()]
-    cost_label = ("DOFs" if study.search.cost == "dofs" else "cost [wall s per simulated s]")
+    cost_label = {"dofs": "DOFs", "model": "cost [model s per simulated s]"}.get(
+        study.search.cost, "cost [wall s per simulated s]")
     ok = done[done["meets_tolerance"]]
     bad = done[~done["meets_tolerance"]]
     ax.scatter(bad["cost"], bad["error"], s=18, color="0.6", label="trial")

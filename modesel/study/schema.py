@@ -79,8 +79,9 @@ TABLES = (
     Table("search", "What is searched and how.", (
         Key("fields", "table", REQUIRED, "", "one table per searched field (below); other fields keep the scene's modes"),
         Key("sampler", "string", "tpe", "", "Optuna sampler, seeded", SAMPLER_NAMES),
-        Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second) or "
-            "dofs (number of degrees of freedom)", COST_NAMES),
+        Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second), "
+            "model (right-hand-side evaluations x calibrated unit cost per simulated second: "
+            "deterministic) or dofs (number of degrees of freedom)", COST_NAMES),
     ), required=True),
     Table("search.fields.<field>", "The families and counts searched for one flexible field "
           "(tower_fa, tower_ss, tower_torsion, blade_flap, blade_edge).", (

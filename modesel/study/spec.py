@@ -46,7 +46,9 @@ Example (every key shown; only [[scene]], [compare].channels and
 
     [search]
     sampler = "tpe"                    # "tpe" | "nsga2" | "random" (multi-objective, seeded)
-    cost = "wall_time"                 # "wall_time" (wall s per simulated s) | "dofs"
+    cost = "model"                     # "model" (deterministic: right-hand-side evaluations x
+                                       # calibrated unit cost, s per simulated s) |
+                                       # "wall_time" (measured wall s per simulated s) | "dofs"
 
     [search.fields.tower_fa]           # one table per searched field; others keep the scene default
     families = ["clamped", "relaxed_root"]   # see `modesel candidates`
@@ -82,7 +84,7 @@ from modesel.modeset import FIELDS
 
 REFERENCE_KINDS = ("openfast", "csv", "internal")
 SAMPLER_NAMES = ("tpe", "nsga2", "random")
-COST_NAMES = ("wall_time", "dofs")
+COST_NAMES = ("wall_time", "dofs", "model")
 
 
 @dataclass(frozen=True)
@@ -443,9 +445,10 @@ def _search(r: _Reader) -> SearchSpec:
             if name not in fam.fields:
                 raise fr.error(f"family '{fam_name}' does not describe field '{name}' "
                                f"(it describes {', '.join(fam.fields)})", f"families[{i}]")
-            top = max_count if fam.max_count is None else min(max_count, fam.max_count)
+            cap = fam.max_count_for(name)      # the family's own maximum for this field
+            top = max_count if cap is None else min(max_count, cap)
             if top < min_count:
-                raise fr.error(f"family '{fam_name}' provides at most {fam.max_count} modes, "
+                raise fr.error(f"family '{fam_name}' provides at most {cap} modes, "
                                f"below min_count={min_count}", f"families[{i}]")
             pr = params_r.table(fam_name)
             known = {p.name: p for p in fam.parameters}
