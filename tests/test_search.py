@@ -437,3 +437,152 @@ stretch = [0.95, 1.05]
     trial = optuna.trial.FixedTrial(space.params(ms))
     assert space.suggest(trial) == ms
     assert space.size() == math.inf
+
+
+# ------------------------------------------------------------------ no wasted trials, deterministic cost
+
+
+def test_family_counts_are_capped_per_field(tmp_path):
+    path = tmp_path / "study.toml"
+    (tmp_path / "scene.toml").write_text("# fake scene\n")
+    path.write_text("""
+[[scene]]
+path = "scene.toml"
+[compare]
+channels = ["TTDspFA"]
+[search.fields.tower_fa]
+families = ["elastodyn", "clamped"]
+max_count = 4
+[search.fields.blade_flap]
+families = ["elastodyn"]
+max_count = 4
+[search.fields.blade_edge]
+families = ["elastodyn", "cosine"]
+max_count = 4
+""")
+    study = load(path)
+    caps = {(s.field, f.family): f.max_count for s in study.search.fields for f in s.families}
+    # the deck's ElastoDyn slots: 2 tower, 2 flap, 1 edge; other families keep max_count
+    assert caps == {("tower_fa", "elastodyn"): 2, ("tower_fa", "clamped"): 4,
+                    ("blade_flap", "elastodyn"): 2,
+                    ("blade_edge", "elastodyn"): 1, ("blade_edge", "cosine"): 4}
+    space = SearchSpace(study.search)
+    assert space.size() == (2 + 4) * 2 * (1 + 4)
+    rng = np.random.default_rng(0)
+    for _ in range(200):     # no drawn set asks a family for more shapes than it has
+        ms = space.random_set(rng)
+        assert space.contains(ms) and ms["blade_edge"].count <= (1 if ms["blade_edge"].family
+                                                                  == "elastodyn" else 4)
+    path.write_text(path.read_text().replace('families = ["elastodyn", "cosine"]\nmax_count = 4',
+                                             'families = ["elastodyn"]\nmin_count = 2'))
+    with pytest.raises(ModeselError, match=r"blade_edge.families\[0\]: family 'elastodyn' provides "
+                                           r"at most 1 modes, below min_count=2"):
+        load(path)
+
+
+def _equivalence_cases():
+    """(field, family, count, params) choices, including the boundary values
+    at which a family's shapes may equal another family's."""
+    from modesel.candidates.base import families
+    out = []
+    for fam in families():
+        if fam.name.startswith("test_") or fam.name == "elastodyn":
+            continue
+        for fld in fam.fields:
+            grids = [{}]
+            for p in fam.parameters:
+                grids = [dict(g, **{p.name: v}) for g in grids
+                         for v in sorted({p.low, p.default, p.high, 0.5 * (p.low + p.high)})]
+            out += [(fld, fam.name, 3, g) for g in grids[:12]]
+    return out
+
+
+def test_canonical_form_describes_the_same_shapes():
+    """Every declared equivalence (canonical_modes) is checked on the shapes
+    themselves: the canonical choice gives the same phi, phi', phi'' to 1e-9."""
+    from modesel.candidates.base import canonical_modes, mode_shapes
+    from modesel.candidates.context import field_context
+    from modesel.turbine.elastodyn import load_turbine
+    turbine = load_turbine("nrel5mw")
+    x = np.linspace(0.0, 1.0, 101)
+    renamed = set()
+    for fld, family, count, params in _equivalence_cases():
+        ctx = field_context(turbine, fld, rotor_speed=1.267)
+        c_family, c_count, c_params = canonical_modes(fld, family, count, params)
+        a = mode_shapes(fld, family, count, ctx, x=x, **params)
+        b = mode_shapes(fld, c_family, c_count, ctx, x=x, **c_params)
+        for u, v in ((a.phi, b.phi), (a.dphi, b.dphi), (a.ddphi, b.ddphi)):
+            assert np.allclose(u, v, rtol=1e-9, atol=1e-9 * np.abs(u).max()), (fld, family, params)
+        if c_family != family:
+            renamed.add((family, c_family))
+    assert renamed == {("relaxed_tipmass", "clamped"), ("relaxed_root", "polynomial")}
+    # and choices that differ are not merged
+    assert canonical_modes("tower_fa", "relaxed_tipmass", 2, {"mass_ratio": 1.0})[0] == "relaxed_tipmass"
+    assert canonical_modes("tower_fa", "fem", 2, {"speed_factor": 0.5, "elements": 60.2}) == ("fem", 2, {})
+    assert canonical_modes("blade_flap", "fem", 2, {"speed_factor": 0.5}) == ("fem", 2, {"speed_factor": 0.5})
+
+
+def test_identical_shapes_are_simulated_once(tmp_path):
+    """`relaxed_tipmass` without parameter ranges is `clamped`: the search
+    simulates each canonical set once, stops when all are done, and no two
+    complete trials that simulated hold identical shapes."""
+    path = make_study(tmp_path, tower_families='["clamped", "relaxed_tipmass"]', n_trials=30)
+    path.write_text(path.read_text().replace('sampler = "tpe"', 'sampler = "random"')
+                    .replace("max_count = 5\n[search.fields.blade_flap]", "max_count = 3\n"
+                             "[search.fields.blade_flap]", 1)
+                    .replace('families = ["test_exact"]\nmax_count = 5', 'families = ["test_exact"]\nmax_count = 2'))
+    study = load(path)
+    space = SearchSpace(study.search)
+    assert space.size() == 3 * 2            # relaxed_tipmass:n = clamped:n
+    sim = CountingSimulate()
+    outcome = run_search(study, out_dir=tmp_path / "out", engine=Engine(fake_load_scene, sim),
+                         progress=False)
+    trials = outcome.optuna_study.trials
+    assert sorted(sim.calls) == sorted(set(sim.calls)) and len(sim.calls) == 6
+    assert not any("relaxed_tipmass" in c for c in sim.calls)
+    proposed = [t for t in trials if t.params.get("tower_fa.family") == "relaxed_tipmass"]
+    assert proposed and all(t.user_attrs["proposed"].startswith("tower_fa=relaxed_tipmass")
+                            for t in proposed)
+    simulated = [t.user_attrs["modeset"] for t in distinct(trials)]
+    assert len(simulated) == len(set(simulated)) == 6
+
+
+class NoisyTimingSimulate:
+    """The fake engine with a wall time that varies from run to run (timing
+    noise) and a deterministic count of right-hand-side evaluations."""
+
+    def __init__(self, seed):
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, scene, modeset=None, *, tmax=None, dt=None):
+        r = fake_simulate(scene, modeset, tmax=tmax, dt=dt)
+        return NoisyResult(r.outputs, r.n_dofs, r.wall_time_s * self.rng.uniform(0.5, 2.0),
+                           r.simulated_time_s, n_rhs=100 * r.n_dofs + 7)
+
+
+@dataclass
+class NoisyResult(FakeResult):
+    n_rhs: int = 0
+
+
+def test_model_cost_gives_the_same_ranking_and_front_for_the_same_seed(tmp_path):
+    from modesel.study.results import write_results
+    from modesel.study.search.objective import unit_cost
+    path = make_study(tmp_path, n_trials=25)
+    path.write_text(path.read_text().replace('sampler = "tpe"', 'sampler = "tpe"\ncost = "model"'))
+    study = load(path)
+    tables = []
+    for run in range(2):
+        out = tmp_path / f"out{run}"
+        outcome = run_search(study, out_dir=out, engine=Engine(fake_load_scene, NoisyTimingSimulate(run)),
+                             progress=False)
+        write_results(out, outcome.optuna_study, study)
+        timing = ["wall_time_s", "speed"]
+        tables.append((pd.read_csv(out / "trials.csv").drop(columns=timing),
+                       pd.read_csv(out / "pareto.csv").drop(columns=timing),
+                       pd.read_csv(out / "trials.csv")["wall_time_s"]))
+        t = outcome.optuna_study.trials[0].user_attrs     # cost = evaluations x unit cost / simulated s
+        assert t["cost"] == pytest.approx(t["n_rhs"] * unit_cost(t["n_dofs"]) / t["simulated_time_s"])
+    pd.testing.assert_frame_equal(tables[0][0], tables[1][0])
+    pd.testing.assert_frame_equal(tables[0][1], tables[1][1])
+    assert not np.allclose(tables[0][2], tables[1][2])     # the measured wall times did differ
