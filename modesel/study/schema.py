@@ -72,6 +72,8 @@ TABLES = (
         Key("channels", "list or table", REQUIRED, "", "channels to compare (OpenFAST names), a list "
             "(weights 1) or a table channel = weight (> 0)"),
         Key("metric", "string", "nrmse", "-", "error metric, see Metrics below", ()),
+        Key("periodic", "table", None, "", "metric = \"periodic\" only: last_s [s] (compare the last "
+            "last_s seconds, default all) and harmonics (azimuth harmonics compared, default 3)"),
         Key("tolerance", "number", 0.035, "-", "worst weighted channel error allowed, as a fraction "
             "(0.035 = 3.5 %, the second paper's tolerance)"),
         Key("levels", "list", None, "-", "further tolerance levels reported (\"1 % costs K times\"), fractions"),

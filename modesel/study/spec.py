@@ -40,7 +40,10 @@ Example (every key shown; only [[scene]], [compare].channels and
     [compare]
     channels = { TTDspFA = 1.0, TTDspSS = 1.0 }  # channel = weight, or a list (weights 1)
     metric = "nrmse"                   # see modesel.study.metrics (nrmse, max_abs, mean,
-                                       # amplitude, frequency, r2)
+                                       # amplitude, frequency, r2, periodic)
+    [compare.periodic]                 # only with metric = "periodic" (against rotor azimuth)
+    last_s = 30.0                      # [s] compare the last 30 s of the window (default: all)
+    harmonics = 3                      # mean + this many azimuth harmonics (default 3)
     tolerance = 0.035                  # worst weighted channel error allowed (3.5 %, paper 2)
     levels = [0.035, 0.01]             # extra tolerance levels reported ("1 % costs K times")
 
@@ -131,6 +134,7 @@ class CompareSpec:
     metric: str = "nrmse"
     tolerance: float = 0.035
     levels: tuple = (0.035,)
+    metric_params: dict = field(default_factory=dict)   # periodic: last_s [s], harmonics
 
 
 @dataclass(frozen=True)
@@ -210,6 +214,7 @@ class Study:
 
         data = {"scenes": [plain(s) for s in self.scenes], "reference": plain(self.reference),
                 "channels": self.compare.channels, "metric": self.compare.metric,
+                **({"metric_params": self.compare.metric_params} if self.compare.metric_params else {}),
                 "fields": asdict(self.search)["fields"], "cost": self.search.cost}
         text = json.dumps(data, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -374,7 +379,7 @@ def _reference(r: _Reader, base: Path, scenes: tuple) -> tuple[ReferenceSpec, tu
 
 def _compare(r: _Reader) -> CompareSpec:
     from modesel.study.metrics import METRICS
-    r.allow("channels", "metric", "tolerance", "levels")
+    r.allow("channels", "metric", "tolerance", "levels", "periodic")
     if "channels" not in r.data:
         raise r.error("missing: list the channels to compare, e.g. channels = [\"TTDspFA\"]", "channels")
     raw = r.data["channels"]
@@ -401,7 +406,17 @@ def _compare(r: _Reader) -> CompareSpec:
         levels += [r.number("levels", value=v, positive=True, where=f"levels[{i}]")
                    for i, v in enumerate(raw_levels)]
     levels = tuple(sorted(set(levels), reverse=True))
-    return CompareSpec(channels, metric, tolerance, levels)
+    params = {}
+    if "periodic" in r.data:
+        if metric != "periodic":
+            raise r.error(f"only used by metric = \"periodic\", the metric is \"{metric}\"", "periodic")
+        pr = r.table("periodic")
+        pr.allow("last_s", "harmonics")
+        params = {"last_s": pr.number("last_s", None, positive=True),
+                  "harmonics": pr.number("harmonics", 3, integer=True, low=1)}
+    elif metric == "periodic":
+        params = {"last_s": None, "harmonics": 3}
+    return CompareSpec(channels, metric, tolerance, levels, params)
 
 
 def _family(name: str, r: _Reader, key: str):

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from modesel.errors import ModeselError
 from modesel.modeset import ModeSet
-from modesel.study.metrics import metric
+from modesel.study.metrics import AZIMUTH_METRICS, metric
 from modesel.study.search.claims import INTERRUPTED, claim
 from modesel.study.search.engine import Engine
 from modesel.study.search.space import SearchSpace
@@ -97,9 +97,10 @@ class Objective:
                 result = self.engine.simulate(self.scenes[spec.name], modeset, tmax=spec.tmax, dt=spec.dt)
                 aligned = self.references[spec.name].align(result.outputs, channels,
                                                            file=f"simulation of scene '{spec.name}'")
+                options = self.metric_options(aligned)
                 scene_errors[spec.name] = {
                     ch: metric(self.study.compare.metric, aligned.sim[ch], aligned.ref[ch], aligned.time,
-                               channel=ch) for ch in channels}
+                               channel=ch, **options) for ch in channels}
             except ModeselError as exc:
                 exc.scene = spec.name
                 raise
@@ -125,6 +126,13 @@ class Objective:
                 "n_dofs": n_dofs, "n_rhs": n_rhs, "wall_time_s": wall, "simulated_time_s": simulated,
                 "speed": simulated / wall if wall > 0 else math.inf, "cost": cost,
                 "_series": series}
+
+    def metric_options(self, aligned) -> dict:
+        """Keyword options of the study's metric (periodic: the azimuths and its parameters)."""
+        options = dict(self.study.compare.metric_params)
+        if self.study.compare.metric in AZIMUTH_METRICS:
+            options.update(azimuth_sim=aligned.azimuth_sim, azimuth_ref=aligned.azimuth_ref)
+        return options
 
     def warm_up(self) -> None:
         """Simulate a few steps of the first scene with its default set, untimed:
