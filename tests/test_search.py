@@ -650,3 +650,42 @@ def test_periodic_metric_in_a_study_aligns_the_azimuth_channel(tmp_path):
     path.write_text(bad)
     with pytest.raises(ModeselError, match=r"compare.periodic: only used by metric = \"periodic\""):
         load(path)
+
+
+# ------------------------------------------------------------------ the OpenFAST flagship studies
+
+STUDIES = Path(__file__).resolve().parent.parent / "studies"
+
+
+@pytest.mark.parametrize("name, elastodyn", [("nrel5mw_openfast_11p4", False),
+                                             ("nrel5mw_openfast_11p4_control", True),
+                                             ("nrel5mw_beamdyn_11p4", True)])
+def test_flagship_study_files(name, elastodyn):
+    from modesel.study.spec import load_study
+    study = load_study(STUDIES / f"{name}.toml")
+    assert [s.field for s in study.search.fields] == ["tower_fa", "tower_ss", "blade_flap", "blade_edge"]
+    assert list(study.compare.channels) == ["TTDspFA", "TTDspSS", "OoPDefl1", "OoPDefl2", "OoPDefl3",
+                                            "IPDefl1", "IPDefl2", "IPDefl3"]
+    assert study.compare.metric == "periodic" and study.search.cost == "model"
+    for space in study.search.fields:
+        families = {f.family: f.max_count for f in space.families}
+        assert ("elastodyn" in families) == elastodyn
+        assert {"polynomial", "cosine", "clamped", "relaxed_root", "relaxed_tipmass", "fem"} <= set(families)
+        if elastodyn:
+            assert families["elastodyn"] == (1 if space.field == "blade_edge" else 2)
+    assert study.scenes[0].reference.is_file() and study.scenes[0].path.is_file()
+    if name == "nrel5mw_beamdyn_11p4":
+        assert study.reference.channels["OoPDefl1"] == "B1TipTDxr"
+        assert study.reference.channels["IPDefl3"] == "B3TipTDyr"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["nrel5mw_openfast_11p4", "nrel5mw_openfast_11p4_control",
+                                  "nrel5mw_beamdyn_11p4"])
+def test_flagship_study_runs(tmp_path, name):
+    """A few trials of each flagship (the full 60-trial runs take hours on 2 cores)."""
+    from modesel.study.spec import load_study
+    study = load_study(STUDIES / f"{name}.toml")
+    outcome = run_search(study, out_dir=tmp_path, n_trials=2, n_jobs=1, progress=False)
+    done = [t for t in outcome.optuna_study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+    assert done and all(set(t.user_attrs["errors"]) == set(study.compare.channels) for t in done)
