@@ -41,9 +41,10 @@ Example (every key shown; only [[scene]], [compare].channels and
     channels = { TTDspFA = 1.0, TTDspSS = 1.0 }  # channel = weight, or a list (weights 1)
     metric = "nrmse"                   # see modesel.study.metrics (nrmse, max_abs, mean,
                                        # amplitude, frequency, r2, periodic)
-    [compare.periodic]                 # only with metric = "periodic" (against rotor azimuth)
-    last_s = 30.0                      # [s] compare the last 30 s of the window (default: all)
-    harmonics = 3                      # mean + this many azimuth harmonics (default 3)
+    # with metric = "periodic" (against rotor azimuth), its parameters:
+    # [compare.periodic]
+    # last_s = 30.0                    # [s] compare the last 30 s of the window (default: all)
+    # harmonics = 3                    # mean + this many azimuth harmonics (default 3)
     tolerance = 0.035                  # worst weighted channel error allowed (3.5 %, paper 2)
     levels = [0.035, 0.01]             # extra tolerance levels reported ("1 % costs K times")
 
