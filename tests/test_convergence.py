@@ -84,8 +84,11 @@ def test_frequency_on_a_non_uniform_grid():
 
 def test_perfect_match_is_zero_for_every_metric():
     ref = 1.5 + S
+    from modesel.study.metrics import AZIMUTH_METRICS
+    psi = 4 * np.pi * (T - T[0]) / (T[-1] - T[0])      # two rotor revolutions
     for name in METRICS:
-        assert metric(name, ref.copy(), ref, T) == pytest.approx(0.0, abs=1e-12)
+        opts = dict(azimuth_sim=psi, azimuth_ref=psi) if name in AZIMUTH_METRICS else {}
+        assert metric(name, ref.copy(), ref, T, **opts) == pytest.approx(0.0, abs=1e-12)
 
 
 @pytest.mark.parametrize("name", ["nrmse", "max_abs", "amplitude", "frequency", "r2"])

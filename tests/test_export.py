@@ -332,3 +332,63 @@ def test_cli_bad_input_is_one_line_exit_2(tmp_path, capsys, case):
                 "no_target": "nothing to export", "bad_weighting": "weighting"}[case]
     assert expected in err
     assert not (tmp_path / "o").exists()
+
+
+# --------------------------------------------------------------------------- OpenFAST case
+CASE = Path(__file__).parent / "data" / "openfast_turbine" / "parked_release" / "parked_release.fst"
+STEADY = Path(__file__).parent.parent / "studies" / "data" / "openfast" / "steady_11p4" / "steady_11p4.fst"
+
+
+def test_openfast_case_is_complete_and_names_the_new_elastodyn(tmp_path, capsys):
+    """Every file the steady 11.4 m/s case names (AeroDyn, its blade and airfoil
+    files, InflowWind, ServoDyn) is copied with its relative layout; the .fst
+    names the new ElastoDyn file, whose tower file carries the fits."""
+    from modesel.export.openfast_case import case_files, referenced_files
+    ms = write_modeset(tmp_path / "ms.json", {"tower_fa": {"family": "clamped", "count": 2},
+                                              "blade_edge": {"family": "fem", "count": 1}})
+    out = tmp_path / "case"
+    assert main(["export", ms, "--case", str(STEADY), "--openfast", str(out), "--tmax", "12.5"]) == 0
+    assert "OpenFAST case written" in capsys.readouterr().out
+    fst = out / "steady_11p4" / "steady_11p4.fst"
+    sources = case_files(STEADY)
+    assert len(sources) > 10     # fst, AeroDyn, its blade, airfoils, InflowWind, ServoDyn
+    written = case_files(fst)
+    assert {p.name for p in written} >= {p.name for p in sources}
+    assert all(p.is_relative_to(out.resolve()) for p in written)    # nothing points back to the source
+    names = {line.split()[1]: line.split()[0].strip('"') for line in fst.read_text().splitlines()
+             if len(line.split()) > 1}
+    assert names["TMax"] == "12.5" and names["EDFile"] == "steady_11p4_ElastoDyn_ElastoDyn.dat"
+    reader = InputReader_OpenFAST()
+    reader.read_ElastoDyn(str(fst.parent / names["EDFile"]))
+    reader.read_ElastoDynTower(str(fst.parent / reader.fst_vt["ElastoDyn"]["TwrFile"]))
+    ed = reader.fst_vt["ElastoDyn"]
+    assert ed["TwFADOF1"] and ed["TwFADOF2"] and ed["EdgeDOF"]
+    assert referenced_files(fst.parent / names["EDFile"])      # tower and blade files exist beside it
+    from modesel.candidates import mode_shapes
+    clamped = fit_mode_polynomial(X, mode_shapes("tower_fa", "clamped", 2, x=X).phi[0])
+    np.testing.assert_allclose(reader.fst_vt["ElastoDynTower"]["TwFAM1Sh"], clamped.coefficients, rtol=1e-6)
+
+
+@pytest.mark.parametrize("fields, reason", [
+    ({"tower_fa": {"family": "clamped", "count": 3}}, "tower_fa=clamped:3 (ElastoDyn has at most 2 tower_fa modes)"),
+    ({"blade_edge": {"family": "fem", "count": 2}}, "blade_edge=fem:2 (ElastoDyn has at most 1 blade_edge mode)"),
+    ({"tower_torsion": {"family": "linear", "count": 1}}, "tower_torsion=linear:1 (ElastoDyn has no tower torsion DOF)"),
+])
+def test_openfast_case_refuses_a_set_elastodyn_cannot_hold(tmp_path, capsys, fields, reason):
+    ms = write_modeset(tmp_path / "ms.json", fields)
+    assert main(["export", ms, "--case", str(CASE), "--openfast", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "ElastoDyn cannot hold this set: " + reason in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_export_takes_the_turbine_from_the_study(tmp_path, capsys):
+    """best_modeset.json names the study's scenes: no --turbine needed."""
+    best = tmp_path / "best_modeset.json"
+    best.write_text(json.dumps({"fields": {"tower_fa": {"family": "clamped", "count": 1}},
+                                "study": "s", "scenes": [str(CASE)]}))
+    assert main(["export", str(best), "--elastodyn", str(tmp_path / "ed")]) == 0
+    assert (tmp_path / "ed" / "parked_release_ElastoDyn_ElastoDyn.dat").exists()
+    no_scene = write_modeset(tmp_path / "ms.json", {"tower_fa": {"family": "clamped", "count": 1}})
+    assert main(["export", no_scene, "--elastodyn", str(tmp_path / "ed2")]) == 2
+    assert "no turbine: give --turbine DECK" in capsys.readouterr().err

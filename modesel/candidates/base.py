@@ -87,6 +87,29 @@ class Family(ABC):
     fields: tuple = BENDING_FIELDS
     parameters: tuple = ()          # of Parameter
     max_count: int | None = None
+    field_max_counts: dict = {}     # field -> a lower cap than max_count for that field
+
+    def max_count_for(self, field: str) -> int | None:
+        """Most shapes this family gives for `field` (None: unbounded)."""
+        caps = [c for c in (self.max_count, self.field_max_counts.get(field)) if c is not None]
+        return min(caps) if caps else None
+
+    def relevant_parameters(self, field: str) -> tuple:
+        """Names of the parameters that change the shapes of `field` (all by default)."""
+        return tuple(p.name for p in self.parameters)
+
+    def canonical(self, field: str, count: int, params: dict) -> tuple:
+        """(family, count, params) of the simplest description of the same shapes:
+        `params` are the full parameters (defaults filled in); parameters that do
+        not change this field's shapes, and those at their default, are dropped.
+        Families whose shapes equal another family's for some parameters
+        (e.g. `relaxed_tipmass` with zero ratios is `clamped`) override this and
+        name that family; tests check each declared equivalence on the shapes."""
+        relevant = self.relevant_parameters(field)
+        defaults = {p.name: p.default for p in self.parameters}
+        kept = {k: float(v) for k, v in sorted(params.items())
+                if k in relevant and float(v) != defaults.get(k)}
+        return self.name, int(count), kept
 
     def shapes(self, x, count: int, context: FieldContext, **params) -> ShapeSet:
         """Validate and evaluate; the one entry point callers use."""
@@ -106,9 +129,10 @@ class Family(ABC):
                                f" (it describes {', '.join(self.fields)})", field="family")
         if not isinstance(count, (int, np.integer)) or isinstance(count, bool) or count < 1:
             raise ModeselError(f"count must be an integer >= 1, got {count!r}", field="count")
-        if self.max_count is not None and count > self.max_count:
-            raise ModeselError(f"family '{self.name}' provides at most {self.max_count} modes"
-                               f" for this field, asked for {count}", field="count")
+        top = self.max_count_for(field)
+        if top is not None and count > top:
+            raise ModeselError(f"family '{self.name}' provides at most {top} modes"
+                               f" for {field}, asked for {count}", field="count")
         known = {p.name: p for p in self.parameters}
         full = {p.name: p.default for p in self.parameters}
         for key, value in params.items():
@@ -163,6 +187,23 @@ def families(field: str | None = None) -> list[Family]:
     """All registered families, or those describing `field`."""
     from modesel import candidates  # noqa: F401
     return [f for f in _REGISTRY.values() if field is None or field in f.fields]
+
+
+def canonical_modes(field: str, family: str, count: int, params: dict | None = None, *,
+                    lookup=None) -> tuple:
+    """(family, count, params) of the simplest description of `count` shapes of
+    `family` for `field` with `params` (validated; defaults filled in first):
+    two choices with the same canonical form have identical shapes, so a
+    search evaluates them once. `lookup(name) -> Family` (default
+    `get_family`) lets a caller use family instances it already holds."""
+    lookup = lookup or get_family
+    fam = lookup(family)
+    full = fam.validate(field, count, dict(params or {}))
+    name, count, kept = fam.canonical(field, int(count), full)
+    if name != fam.name:                  # an equivalence: canonical in the other family too
+        other = lookup(name)
+        return other.canonical(field, count, other.validate(field, count, kept))
+    return name, count, kept
 
 
 def default_stations(n: int = 201) -> np.ndarray:

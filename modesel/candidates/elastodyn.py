@@ -28,6 +28,7 @@ class ElastoDyn(Family):
                    "eq. 46 of the first paper); tower 2 + 2, blade flap 2, edge 1")
     fields = BENDING_FIELDS
     max_count = 2
+    field_max_counts = {"blade_edge": 1}   # ElastoDyn's slots: BldEdgSh only
 
     def evaluate(self, x, count, context, params):
         where = dict(file=context.source, field=context.field)

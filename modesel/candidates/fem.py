@@ -72,6 +72,18 @@ class Fem(Family):
     def __init__(self):
         self._cache = OrderedDict()
 
+    def relevant_parameters(self, field):
+        if field.startswith("blade"):
+            return ("elements", "speed_factor")
+        if field in TORSION_FIELDS:
+            return ("elements",)
+        return ("elements", "gravity_factor")
+
+    def canonical(self, field, count, params):
+        """`elements` enters rounded to an integer; speed_factor only for blades,
+        gravity_factor only for tower bending."""
+        return super().canonical(field, count, dict(params, elements=float(round(params["elements"]))))
+
     def modal_analysis(self, context, count, params):
         """(omega [rad/s] (count,), element nodes [m], eigenvectors) of the field's beam.
         Results are cached on the values of everything they depend on."""

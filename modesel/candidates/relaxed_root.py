@@ -47,3 +47,9 @@ class RelaxedRoot(Family):
         coeffs = w * coeffs / coeffs.sum(axis=1, keepdims=True)
         coeffs[np.arange(count), np.arange(count)] += 1.0 - w   # (1 - w) x^(k+1)
         return power_series(x, coeffs, powers)
+
+    def canonical(self, field, count, params):
+        """w = 1 is `polynomial` (every free-end condition enforced)."""
+        if params["free_end_weight"] == 1.0:
+            return "polynomial", int(count), {}
+        return super().canonical(field, count, params)

@@ -38,3 +38,9 @@ class RelaxedTipMass(Family):
     def evaluate(self, x, count, context, params):
         mu, eta = params["mass_ratio"], params["inertia_ratio"]
         return eigenfunctions(x, characteristic_roots(count, mu, eta), mu, eta)
+
+    def canonical(self, field, count, params):
+        """mu = eta = 0 is `clamped` (the free-end conditions of a bare cantilever)."""
+        if params["mass_ratio"] == 0.0 and params["inertia_ratio"] == 0.0:
+            return "clamped", int(count), {}
+        return super().canonical(field, count, params)

@@ -1,6 +1,14 @@
-"""`modesel export MS.json --turbine DECK [--elastodyn OUTDIR] [--json OUT.json] [--weighting W] [--rpm R]`.
+"""`modesel export MS.json [--turbine DECK] [--elastodyn OUTDIR] [--json OUT.json] [--case CASE.fst --openfast OUTDIR [--tmax T]] [--weighting W] [--rpm R]`.
 
-Export a chosen mode set for other simulators:
+Export a chosen mode set for other simulators. The turbine is `--turbine`,
+else the `--case`, else the first scene of the study that wrote MS.json
+(`best_modeset.json` names its scenes):
+
+--case CASE.fst --openfast OUTDIR  a complete OpenFAST case running the set:
+    CASE.fst and every file it names copied into OUTDIR (same relative
+    layout), its ElastoDyn files replaced by fits of the set's shapes (blade
+    shapes at the case's initial rotor speed, as `modesel simulate` uses
+    them); `--tmax T` sets TMax [s]. A set ElastoDyn cannot hold is refused.
 
 --elastodyn OUTDIR  ElastoDyn main, tower and blade files (written by
     openfast-io) whose mode-shape polynomials are constrained sixth-order
@@ -28,8 +36,12 @@ def register(subparsers):
     p = subparsers.add_parser("export", help="export a mode set as ElastoDyn files and/or JSON",
                               description=__doc__.splitlines()[0])
     p.add_argument("modeset", metavar="MS.json", help="mode-set JSON file")
-    p.add_argument("--turbine", required=True, metavar="DECK",
-                   help="ElastoDyn main file, .fst file, or 'nrel5mw'")
+    p.add_argument("--turbine", metavar="DECK",
+                   help="ElastoDyn main file, .fst file, or 'nrel5mw' (default: --case, or the study's "
+                        "first scene named in MS.json)")
+    p.add_argument("--case", metavar="CASE.fst", help="OpenFAST case to run the set in (with --openfast)")
+    p.add_argument("--openfast", metavar="OUTDIR", help="folder for the complete OpenFAST case")
+    p.add_argument("--tmax", metavar="T", help="TMax [s] of the exported OpenFAST case (default: the case's)")
     p.add_argument("--elastodyn", metavar="OUTDIR", help="folder for the ElastoDyn files")
     p.add_argument("--json", metavar="OUT.json", help="JSON file with sampled shapes and shape integrals")
     p.add_argument("--weighting", default="uniform", help=f"fit weighting: {', '.join(WEIGHTINGS)}")
@@ -37,24 +49,62 @@ def register(subparsers):
     p.set_defaults(func=run)
 
 
+def _number(text, name, low=0.0):
+    try:
+        value = float(text)
+    except ValueError:
+        raise ModeselError(f"must be a number, got {text!r}", field=name) from None
+    if not np.isfinite(value) or value < low:
+        raise ModeselError(f"must be >= {low:g}, got {value:g}", field=name)
+    return value
+
+
+def study_turbine(path) -> str | None:
+    """The deck of the first scene named by a best_modeset.json (key 'scenes'), or None."""
+    import json
+    from pathlib import Path
+
+    from modesel.simulation.api import load_scene
+    try:
+        scenes = json.loads(Path(path).read_text()).get("scenes") or []
+    except (OSError, ValueError, AttributeError):
+        return None
+    if not scenes:
+        return None
+    scene = Path(path).parent / scenes[0]
+    turbine = load_scene(scene).turbine
+    return getattr(turbine, "source", None) or str(scene)
+
+
 def run(args) -> int:
     from modesel.export import export_modeset
     from modesel.modeset import ModeSet
 
-    if args.elastodyn is None and args.json is None:
-        raise ModeselError("nothing to export: give --elastodyn OUTDIR and/or --json OUT.json",
-                           field="--elastodyn")
+    if args.elastodyn is None and args.json is None and args.openfast is None:
+        raise ModeselError("nothing to export: give --elastodyn OUTDIR, --json OUT.json and/or "
+                           "--case CASE.fst --openfast OUTDIR", field="--elastodyn")
+    if (args.openfast is None) != (args.case is None):
+        raise ModeselError("--openfast OUTDIR and --case CASE.fst go together",
+                           field="--case" if args.case is None else "--openfast")
     if args.weighting not in WEIGHTINGS:
         raise ModeselError(f"unknown weighting '{args.weighting}'; valid: {', '.join(WEIGHTINGS)}",
                            field="--weighting")
-    try:
-        rpm = float(args.rpm)
-    except ValueError:
-        raise ModeselError(f"rotor speed must be a number, got {args.rpm!r}", field="--rpm") from None
-    if not np.isfinite(rpm) or rpm < 0:
-        raise ModeselError(f"rotor speed must be >= 0 rpm, got {rpm:g}", field="--rpm")
+    rpm = _number(args.rpm, "--rpm")
+    tmax = None if args.tmax is None else _number(args.tmax, "--tmax", low=1e-9)
     modeset = ModeSet.from_json(args.modeset)
-    report, data = export_modeset(modeset, args.turbine, elastodyn_dir=args.elastodyn,
+    if args.openfast is not None:
+        from modesel.export.openfast_case import export_openfast_case
+        fst, report = export_openfast_case(modeset, args.case, args.openfast, tmax=tmax,
+                                           weighting=args.weighting, source=args.modeset)
+        print(f"OpenFAST case written: {fst} ({len(report.files)} files)")
+        print("\n".join(report.lines()[1:]))
+    turbine = args.turbine or args.case or study_turbine(args.modeset)
+    if args.elastodyn is None and args.json is None:
+        return 0
+    if turbine is None:
+        raise ModeselError("no turbine: give --turbine DECK (the mode-set file names no study scene)",
+                           field="--turbine")
+    report, data = export_modeset(modeset, turbine, elastodyn_dir=args.elastodyn,
                                   json_path=args.json, weighting=args.weighting, rpm=rpm,
                                   source=args.modeset)
     if report is not None:

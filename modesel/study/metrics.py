@@ -38,6 +38,22 @@ Metrics (R = ref, S = sim, <.> = time average over the window):
                  ~2/T (Hann main lobe) are not separated.
 - ``r2``         1 - R^2 with R^2 = 1 - sum (S-R)^2 / sum (R-<R>)^2 (the
                  coefficient of determination), so 0 is a perfect match.
+- ``periodic``   periodic operation compared against rotor azimuth, not time
+                 (a 0.1 % rotor-speed difference shifts the phase by 36 deg
+                 per 100 revolutions; against azimuth it costs nothing).
+                 Over the last `last_s` seconds of the window (default: all
+                 of it), each side is fitted by least squares with its own
+                 azimuth psi (unwrapped, rad) as
+                     x ~ a_0 + sum_{k=1..H} (a_k cos k psi + b_k sin k psi),
+                 H = `harmonics` (default 3), and
+                     e = sqrt(da_0^2 + 1/2 sum_k (da_k^2 + db_k^2)) / (max R - min R),
+                 d = sim - ref coefficients, the range over the whole window:
+                 by Parseval, the RMS over one revolution of the difference of
+                 the two azimuth-periodic responses, normalised like nrmse.
+                 Needs the Azimuth channel [deg] in the simulation and the
+                 reference, and at least one revolution in the last `last_s`.
+                 Study file: ``metric = "periodic"`` and
+                 ``[compare.periodic] last_s = 30.0, harmonics = 3``.
 
 `Criterion` turns per-channel errors into one verdict, and `StopWhenMet` is
 an Optuna callback that stops a study once the criterion is met.
@@ -154,6 +170,39 @@ def one_minus_r2(sim, ref, time) -> float:
     return 1.0 - r_squared(sim, ref, time)
 
 
+def azimuth_harmonics(x, azimuth, harmonics: int) -> np.ndarray:
+    """Least-squares coefficients (a_0, a_1, b_1, ..., a_H, b_H) of
+    x ~ a_0 + sum_k a_k cos(k psi) + b_k sin(k psi), psi = `azimuth` [rad]."""
+    psi = np.asarray(azimuth, dtype=float)
+    columns = [np.ones_like(psi)]
+    for k in range(1, int(harmonics) + 1):
+        columns += [np.cos(k * psi), np.sin(k * psi)]
+    coeffs, *_ = np.linalg.lstsq(np.column_stack(columns), np.asarray(x, dtype=float), rcond=None)
+    return coeffs
+
+
+def periodic_error(sim, ref, time, *, azimuth_sim=None, azimuth_ref=None, last_s=None,
+                   harmonics: int = 3) -> float:
+    """Mean and first `harmonics` azimuth harmonics over the last `last_s` s,
+    compared as the RMS over one revolution of their difference, divided by
+    the reference range over the whole window (module docstring)."""
+    if azimuth_sim is None or azimuth_ref is None:
+        raise ModeselError("needs the rotor azimuth: the 'Azimuth' channel [deg] must be in the "
+                           "simulation outputs and in the reference file")
+    time = np.asarray(time, dtype=float)
+    span = _reference_range(ref)
+    keep = time >= time[-1] - last_s - 1e-9 if last_s is not None else np.ones(len(time), bool)
+    psi_s, psi_r = np.asarray(azimuth_sim, float)[keep], np.asarray(azimuth_ref, float)[keep]
+    n = 2 * int(harmonics) + 1
+    revolutions = min(abs(psi_s[-1] - psi_s[0]), abs(psi_r[-1] - psi_r[0])) / (2 * np.pi)
+    if keep.sum() < 4 * n or revolutions < 1.0:
+        raise ModeselError(f"the last {time[keep][-1] - time[keep][0]:g} s hold {int(keep.sum())} samples "
+                           f"and {revolutions:.3g} rotor revolutions; {harmonics} harmonics need at least "
+                           f"{4 * n} samples and 1 revolution (raise last_s or lower harmonics)")
+    d = azimuth_harmonics(sim[keep], psi_s, harmonics) - azimuth_harmonics(ref[keep], psi_r, harmonics)
+    return float(np.sqrt(d[0] ** 2 + 0.5 * np.sum(d[1:] ** 2))) / span
+
+
 @dataclass(frozen=True)
 class Metric:
     name: str
@@ -176,11 +225,21 @@ METRICS = {m.name: m for m in (
                    "(parabolic refinement)"),
     Metric("r2", one_minus_r2, "1 - coefficient of determination R^2",
            formula="sum (S - R)^2 / sum (R - <R>)^2"),
+    Metric("periodic", periodic_error,
+           "periodic operation against rotor azimuth: over the last last_s s, the mean and the first H "
+           "azimuth harmonics of each side, least squares on its own azimuth psi",
+           formula="sqrt(da0^2 + 1/2 sum_k=1..H (da_k^2 + db_k^2)) / (max R - min R), "
+                   "x ~ a0 + sum_k (a_k cos k psi + b_k sin k psi)"),
 )}
 
+# metrics compared against the rotor azimuth: they take azimuth_sim, azimuth_ref [rad]
+AZIMUTH_METRICS = ("periodic",)
 
-def metric(name: str, sim, ref, time, *, channel: str | None = None) -> float:
-    """Front function: the error `name` of `sim` against `ref` on `time` [s].
+
+def metric(name: str, sim, ref, time, *, channel: str | None = None, **options) -> float:
+    """Front function: the error `name` of `sim` against `ref` on `time` [s];
+    `options` go to the metric (periodic: azimuth_sim, azimuth_ref [rad],
+    last_s [s], harmonics).
 
     Raises ModeselError for an unknown metric, mismatched lengths, fewer than 2
     samples, non-finite values, or a metric undefined for this reference
@@ -200,7 +259,7 @@ def metric(name: str, sim, ref, time, *, channel: str | None = None) -> float:
         if not np.all(np.isfinite(values)):
             raise ModeselError(f"{label} has NaN or infinite values", field=channel)
     try:
-        return float(METRICS[name].function(sim, ref, time))
+        return float(METRICS[name].function(sim, ref, time, **options))
     except ModeselError as exc:
         raise ModeselError(f"{name}: {exc.message}", field=channel) from None
 

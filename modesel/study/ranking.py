@@ -132,7 +132,8 @@ def best_modeset(ranked: pd.DataFrame, study, trials_by_number: dict) -> dict:
                 "tolerance": study.compare.tolerance}
     attrs = trials_by_number[int(row["trial"])].user_attrs
     data = ModeSet.from_dict(attrs["modeset_json"]).to_dict()
-    data.update(study=study.name, selection=selection, label=row["modeset"], trial=int(row["trial"]),
+    data.update(study=study.name, scenes=[str(s.path) for s in study.scenes],
+                selection=selection, label=row["modeset"], trial=int(row["trial"]),
                 meets_tolerance=bool(row["meets_tolerance"]), tolerance=study.compare.tolerance,
                 metric=study.compare.metric, error=float(row["error"]),
                 error_pct=100.0 * float(row["error"]), tolerance_pct=100.0 * study.compare.tolerance,
@@ -167,6 +168,8 @@ def cost_column(study) -> tuple[str, str]:
     """(file column name, unit) of the cost objective of `study`."""
     if study.search.cost == "dofs":
         return "cost_n_dofs", "-"
+    if study.search.cost == "model":
+        return "cost_model_s_per_sim_s", "s/s"
     return "cost_wall_s_per_sim_s", "s/s"
 
 

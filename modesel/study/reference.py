@@ -162,6 +162,8 @@ class Aligned:
     time: np.ndarray
     sim: dict
     ref: dict
+    azimuth_sim: np.ndarray | None = None   # rotor azimuth [rad], unwrapped (when both sides have it)
+    azimuth_ref: np.ndarray | None = None
 
 
 @dataclass
@@ -180,6 +182,7 @@ class Reference:
     units: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
     window: tuple | None = None
+    azimuth: np.ndarray | None = None   # rotor azimuth [rad], unwrapped, when the file has 'Azimuth'
 
     def align(self, outputs: pd.DataFrame, channels, *, file: str | None = None) -> Aligned:
         """Resample this reference onto the simulation grid `outputs['Time']`.
@@ -222,10 +225,24 @@ class Reference:
                                        f"simulation unit '{sim_units[ch]}'", file=self.source, field=ch)
             sim[ch] = outputs[ch].to_numpy(dtype=float)[keep]
             ref[ch] = factor * np.interp(t, self.time, self.channels[ch])
-        return Aligned(t, sim, ref)
+        az_sim = az_ref = None
+        if self.azimuth is not None and "Azimuth" in outputs.columns:
+            # both unwrapped before resampling, so that 360 -> 0 deg is no jump
+            az_sim = unwrapped_azimuth(outputs["Azimuth"].to_numpy(dtype=float),
+                                       sim_units.get("Azimuth", "deg"), where)[keep]
+            az_ref = np.interp(t, self.time, self.azimuth)
+        return Aligned(t, sim, ref, az_sim, az_ref)
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame({"Time": self.time, **self.channels})
+
+
+def unwrapped_azimuth(values, unit: str, file: str) -> np.ndarray:
+    """Rotor azimuth [rad], continuous (2 pi added at each wrap)."""
+    factor = unit_factor(unit or "deg", "rad")
+    if factor is None:
+        raise ModeselError(f"azimuth unit '{unit}' is not an angle", file=file, field="Azimuth")
+    return np.unwrap(factor * np.asarray(values, dtype=float))
 
 
 def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | None = None,
@@ -248,9 +265,12 @@ def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | Non
         values[ch] = sign * _column(df, name, file)
         if units_in_file.get(name):
             units[ch] = units_in_file[name]
+    azimuth = None
+    if "Azimuth" in df.columns:      # for metrics compared against azimuth (periodic)
+        azimuth = unwrapped_azimuth(_column(df, "Azimuth", file), units_in_file.get("Azimuth", "deg"), file)
     return Reference(scene, file, time + float(time_offset), values, units,
                      {"kind": kind, "channels": {ch: mapping.get(ch, ch) for ch in channels}},
-                     None if window is None else tuple(window))
+                     None if window is None else tuple(window), azimuth)
 
 
 # --------------------------------------------------------------------------- internal reference

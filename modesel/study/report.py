@@ -116,7 +116,8 @@ def _legend_below(fig, ax=None, ncol=2, fontsize=8):
 
 
 def _cost_label(study) -> str:
-    return "DOFs [-]" if study.search.cost == "dofs" else "cost [wall s per simulated s]"
+    return {"dofs": "DOFs [-]", "model": "cost [model s per simulated s]"}.get(
+        study.search.cost, "cost [wall s per simulated s]")
 
 
 def pareto_figure(table: pd.DataFrame, front: pd.DataFrame, study, featured: dict) -> str:

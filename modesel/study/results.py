@@ -15,7 +15,8 @@ outputs do (``pandas.read_csv(path, header=[0, 1])`` reads it with its units;
   error_pct (worst weighted channel, %), worst_channel,
   ``error_pct_<channel>`` per compared channel (%), wall_time_s (s),
   simulated_time_s (s), speed_x_real_time (simulated s per wall s), the cost
-  (``cost_wall_s_per_sim_s``, wall s per simulated s, or ``cost_n_dofs`` with
+  (``cost_wall_s_per_sim_s``, wall s per simulated s, ``cost_model_s_per_sim_s``, the
+  deterministic cost model's s per simulated s, or ``cost_n_dofs`` with
   ``[search] cost = "dofs"``), meets_tolerance, status (COMPLETE/FAIL) and
   reason. A trial that proposed a set already evaluated is served from that
   trial's record (user attribute ``duplicate_of``) and is not listed again.

@@ -38,7 +38,7 @@ class Table:
 
 REFERENCE_KINDS = ("openfast", "csv", "internal")
 SAMPLER_NAMES = ("tpe", "nsga2", "random")
-COST_NAMES = ("wall_time", "dofs")
+COST_NAMES = ("wall_time", "dofs", "model")
 
 TABLES = (
     Table("study", "What the study is called.", (
@@ -75,12 +75,19 @@ TABLES = (
         Key("tolerance", "number", 0.035, "-", "worst weighted channel error allowed, as a fraction "
             "(0.035 = 3.5 %, the second paper's tolerance)"),
         Key("levels", "list", None, "-", "further tolerance levels reported (\"1 % costs K times\"), fractions"),
+        Key("periodic", "table", None, "", "parameters of metric = \"periodic\" (next table)"),
     ), required=True),
+    Table("compare.periodic", "Parameters of the periodic metric (only with metric = \"periodic\"): the "
+          "response in periodic operation compared through its mean and azimuth harmonics.", (
+        Key("last_s", "number", None, "s", "compare the last last_s seconds; default: the whole window"),
+        Key("harmonics", "integer", 3, "-", "number H of azimuth harmonics compared"),
+    )),
     Table("search", "What is searched and how.", (
         Key("fields", "table", REQUIRED, "", "one table per searched field (below); other fields keep the scene's modes"),
         Key("sampler", "string", "tpe", "", "Optuna sampler, seeded", SAMPLER_NAMES),
-        Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second) or "
-            "dofs (number of degrees of freedom)", COST_NAMES),
+        Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second), "
+            "model (right-hand-side evaluations x calibrated unit cost per simulated second: "
+            "deterministic) or dofs (number of degrees of freedom)", COST_NAMES),
     ), required=True),
     Table("search.fields.<field>", "The families and counts searched for one flexible field "
           "(tower_fa, tower_ss, tower_torsion, blade_flap, blade_edge).", (

@@ -40,13 +40,19 @@ Example (every key shown; only [[scene]], [compare].channels and
     [compare]
     channels = { TTDspFA = 1.0, TTDspSS = 1.0 }  # channel = weight, or a list (weights 1)
     metric = "nrmse"                   # see modesel.study.metrics (nrmse, max_abs, mean,
-                                       # amplitude, frequency, r2)
+                                       # amplitude, frequency, r2, periodic)
+    # with metric = "periodic" (against rotor azimuth), its parameters:
+    # [compare.periodic]
+    # last_s = 30.0                    # [s] compare the last 30 s of the window (default: all)
+    # harmonics = 3                    # mean + this many azimuth harmonics (default 3)
     tolerance = 0.035                  # worst weighted channel error allowed (3.5 %, paper 2)
     levels = [0.035, 0.01]             # extra tolerance levels reported ("1 % costs K times")
 
     [search]
     sampler = "tpe"                    # "tpe" | "nsga2" | "random" (multi-objective, seeded)
-    cost = "wall_time"                 # "wall_time" (wall s per simulated s) | "dofs"
+    cost = "model"                     # "model" (deterministic: right-hand-side evaluations x
+                                       # calibrated unit cost, s per simulated s) |
+                                       # "wall_time" (measured wall s per simulated s) | "dofs"
 
     [search.fields.tower_fa]           # one table per searched field; others keep the scene default
     families = ["clamped", "relaxed_root"]   # see `modesel candidates`
@@ -130,6 +136,7 @@ class CompareSpec:
     metric: str = "nrmse"
     tolerance: float = 0.035
     levels: tuple = (0.035,)
+    metric_params: dict = field(default_factory=dict)   # periodic: last_s [s], harmonics
 
 
 @dataclass(frozen=True)
@@ -209,6 +216,7 @@ class Study:
 
         data = {"scenes": [plain(s) for s in self.scenes], "reference": plain(self.reference),
                 "channels": self.compare.channels, "metric": self.compare.metric,
+                **({"metric_params": self.compare.metric_params} if self.compare.metric_params else {}),
                 "fields": asdict(self.search)["fields"], "cost": self.search.cost}
         text = json.dumps(data, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -399,7 +407,17 @@ def _compare(r: _Reader) -> CompareSpec:
         levels += [r.number("levels", value=v, positive=True, where=f"levels[{i}]")
                    for i, v in enumerate(raw_levels)]
     levels = tuple(sorted(set(levels), reverse=True))
-    return CompareSpec(channels, metric, tolerance, levels)
+    params = {}
+    if "periodic" in r.data:
+        if metric != "periodic":
+            raise r.error(f"only used by metric = \"periodic\", the metric is \"{metric}\"", "periodic")
+        pr = r.table("periodic")
+        pr.allow(*schema.keys("compare.periodic"))
+        params = {"last_s": pr.number("last_s", D("compare.periodic", "last_s"), positive=True),
+                  "harmonics": pr.number("harmonics", D("compare.periodic", "harmonics"), integer=True, low=1)}
+    elif metric == "periodic":
+        params = {"last_s": D("compare.periodic", "last_s"), "harmonics": D("compare.periodic", "harmonics")}
+    return CompareSpec(channels, metric, tolerance, levels, params)
 
 
 def _family(name: str, r: _Reader, key: str):
@@ -443,9 +461,10 @@ def _search(r: _Reader) -> SearchSpec:
             if name not in fam.fields:
                 raise fr.error(f"family '{fam_name}' does not describe field '{name}' "
                                f"(it describes {', '.join(fam.fields)})", f"families[{i}]")
-            top = max_count if fam.max_count is None else min(max_count, fam.max_count)
+            cap = fam.max_count_for(name)      # the family's own maximum for this field
+            top = max_count if cap is None else min(max_count, cap)
             if top < min_count:
-                raise fr.error(f"family '{fam_name}' provides at most {fam.max_count} modes, "
+                raise fr.error(f"family '{fam_name}' provides at most {cap} modes, "
                                f"below min_count={min_count}", f"families[{i}]")
             pr = params_r.table(fam_name)
             known = {p.name: p for p in fam.parameters}

@@ -3,17 +3,29 @@
 `Objective` runs `simulate` on every scene of the load case, compares with
 the references and returns (error, cost): error = worst weighted channel
 (per channel, the weight-averaged error over the scenes, see
-`load_case_errors`), cost = wall seconds per simulated second (sum over the
-scenes), or the DOF count with ``[search] cost = "dofs"``. It records user
-attributes: modeset (label), modeset_json, errors {channel: error},
-scene_errors, error, worst_channel, meets_tolerance, n_dofs (max over
-scenes, a deterministic cost proxy), wall_time_s, simulated_time_s, speed,
-cost. A `ModeselError` (e.g. `SimulationDiverged`) marks the trial FAIL
-with user attribute fail_reason (and failed_scene) and the study goes on;
-Optuna samplers ignore failed trials. A set already evaluated is not
-simulated again (`modesel.study.search.claims`): the trial gets the earlier
-values and user attributes modeset and duplicate_of (the earlier trial's
-number) only.
+`load_case_errors`). The cost (``[search] cost``) is
+
+- ``model`` (deterministic): the right-hand-side evaluations the integrator
+  made times the calibrated unit cost of one evaluation for that DOF count
+  and effect set (`unit_cost`), per simulated second, summed over the
+  scenes: the same set on the same scene always costs the same, so the
+  ranking and the Pareto front do not move with timing noise;
+- ``wall_time``: measured wall seconds per simulated second (noisy: two runs
+  of the same study rank sets of equal size differently);
+- ``dofs``: the DOF count.
+
+It records user attributes: modeset (label), modeset_json, errors {channel:
+error}, scene_errors, error, worst_channel, meets_tolerance, n_dofs (max
+over scenes), n_rhs (sum over scenes), wall_time_s, simulated_time_s, speed
+(measured, for information), cost. The set simulated is the canonical form
+of the proposal (`SearchSpace.canonical`: the same shapes described once,
+e.g. `relaxed_tipmass` with zero ratios is `clamped`); a proposal written
+differently keeps its own text in user attribute ``proposed``. A
+`ModeselError` (e.g. `SimulationDiverged`) marks the trial FAIL with user
+attribute fail_reason (and failed_scene) and the study goes on; Optuna
+samplers ignore failed trials. A set already evaluated is not simulated
+again (`modesel.study.search.claims`): the trial gets the earlier values and
+user attributes modeset and duplicate_of (the earlier trial's number) only.
 """
 from __future__ import annotations
 
@@ -22,11 +34,34 @@ from pathlib import Path
 
 from modesel.errors import ModeselError
 from modesel.modeset import ModeSet
-from modesel.study.metrics import metric
+from modesel.study.metrics import AZIMUTH_METRICS, metric
 from modesel.study.search.claims import INTERRUPTED, claim
 from modesel.study.search.engine import Engine
 from modesel.study.search.space import SearchSpace
 from modesel.study.timeseries import write_series
+
+
+# Unit cost of one right-hand-side evaluation [s] for n DOFs, u(n) = a + b n,
+# per effect set, calibrated once on the reference machine class (the 2-core
+# development machine: x86-64, numba kernel, DOP853) with
+# `python3 benchmarks/bench_search_efficiency.py --calibrate`: NREL 5-MW
+# parked release (structure only) and steady 11.4 m/s (BEM aero, InflowWind,
+# tower drag) scenes with 1-4 clamped modes per field, each simulated for 1 s
+# and 4 s (best of 2); u = difference of wall times / difference of
+# evaluations, so the set-up time cancels; a, b the least-squares line.
+UNIT_COST_S = {"structure": (7.1e-5, 2.3e-6), "aero": (4.5e-4, 2.3e-6)}
+
+
+def effect_set(scene) -> str:
+    """'aero' when the scene computes aerodynamic loads, else 'structure'."""
+    effects = getattr(scene, "effects", None) or {}
+    return "aero" if effects.get("aero") else "structure"
+
+
+def unit_cost(n_dofs: int, effects: str = "structure") -> float:
+    """Calibrated cost [s] of one right-hand-side evaluation with `n_dofs` DOFs."""
+    a, b = UNIT_COST_S[effects]
+    return a + b * float(n_dofs)
 
 
 def load_case_errors(scene_errors: dict, weights: dict) -> dict:
@@ -56,32 +91,48 @@ class Objective:
         """Simulate every scene with `modeset` and compare; returns the record."""
         channels = list(self.study.compare.channels)
         scene_errors, series = {}, {}
-        n_dofs, wall, simulated = 0, 0.0, 0.0
+        n_dofs, wall, simulated, n_rhs, modelled = 0, 0.0, 0.0, 0, 0.0
         for spec in self.study.scenes:
             try:
                 result = self.engine.simulate(self.scenes[spec.name], modeset, tmax=spec.tmax, dt=spec.dt)
                 aligned = self.references[spec.name].align(result.outputs, channels,
                                                            file=f"simulation of scene '{spec.name}'")
+                options = self.metric_options(aligned)
                 scene_errors[spec.name] = {
                     ch: metric(self.study.compare.metric, aligned.sim[ch], aligned.ref[ch], aligned.time,
-                               channel=ch) for ch in channels}
+                               channel=ch, **options) for ch in channels}
             except ModeselError as exc:
                 exc.scene = spec.name
                 raise
             n_dofs = max(n_dofs, int(result.n_dofs))
+            rhs = int(getattr(result, "n_rhs", 0) or 0)
+            if self.study.search.cost == "model" and rhs <= 0:
+                raise ModeselError("the engine reports no right-hand-side evaluations; the cost "
+                                   "model needs them (use [search] cost = \"wall_time\")",
+                                   field="search.cost")
+            n_rhs += rhs
+            modelled += rhs * unit_cost(int(result.n_dofs), effect_set(self.scenes[spec.name]))
             wall += float(result.wall_time_s)
             simulated += float(result.simulated_time_s)
             series[spec.name] = (aligned.time, aligned.sim)
         errors = load_case_errors(scene_errors, {s.name: s.weight for s in self.study.scenes})
         verdict = self.criterion.assess(errors)
-        cost = wall / simulated if simulated > 0 else math.inf
+        per_s = (lambda x: x / simulated if simulated > 0 else math.inf)
+        cost = {"dofs": float(n_dofs), "model": per_s(modelled),
+                "wall_time": per_s(wall)}[self.study.search.cost]
         return {"modeset": modeset.label(), "modeset_json": modeset.to_dict(), "errors": errors,
                 "scene_errors": scene_errors, "error": verdict.error,
                 "worst_channel": verdict.worst_channel, "meets_tolerance": verdict.meets,
-                "n_dofs": n_dofs, "wall_time_s": wall, "simulated_time_s": simulated,
-                "speed": simulated / wall if wall > 0 else math.inf,
-                "cost": float(n_dofs) if self.study.search.cost == "dofs" else cost,
+                "n_dofs": n_dofs, "n_rhs": n_rhs, "wall_time_s": wall, "simulated_time_s": simulated,
+                "speed": simulated / wall if wall > 0 else math.inf, "cost": cost,
                 "_series": series}
+
+    def metric_options(self, aligned) -> dict:
+        """Keyword options of the study's metric (periodic: the azimuths and its parameters)."""
+        options = dict(self.study.compare.metric_params)
+        if self.study.compare.metric in AZIMUTH_METRICS:
+            options.update(azimuth_sim=aligned.azimuth_sim, azimuth_ref=aligned.azimuth_ref)
+        return options
 
     def warm_up(self) -> None:
         """Simulate a few steps of the first scene with its default set, untimed:
@@ -103,7 +154,10 @@ class Objective:
             raise
 
     def _run(self, trial):
-        modeset = self.space.suggest(trial)
+        proposed = self.space.suggest(trial)
+        modeset = self.space.canonical(proposed)
+        if modeset.label() != proposed.label():
+            trial.set_user_attr("proposed", proposed.label())
         earlier = claim(trial, modeset.label())
         if earlier is not None:   # the record stays with the earlier trial
             self.duplicate_streak += 1

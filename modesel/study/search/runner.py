@@ -75,7 +75,7 @@ class Budget:
             seen = distinct_sets(study)
             for _ in range(self.draws):
                 candidate = obj.space.random_set(self.rng)
-                if candidate.label() not in seen:
+                if obj.space.canonical(candidate).label() not in seen:
                     study.enqueue_trial(obj.space.params(candidate))
                     obj.duplicate_streak = 0
                     return

@@ -4,11 +4,20 @@ Per searched field a categorical ``<field>.family`` from the allowed list, an
 integer ``<field>.<family>.count`` in the family's range (capped by the
 family's own maximum), and floats ``<field>.<family>.<param>`` for its
 continuous parameters; count and parameters are conditioned on the family.
+
+Counts are capped per field and family by the study file's validator
+(`Family.max_count_for`: e.g. `elastodyn` 2 tower, 2 flap, 1 edge mode), so
+no trial asks a family for more shapes than it has. Choices that describe
+the same shapes (same family after defaults, same parameters, or a declared
+equivalence such as `relaxed_tipmass` with zero ratios = `clamped`) have one
+`canonical` form; the objective evaluates that form, so identical shapes are
+simulated once and later proposals take the stored record.
 """
 from __future__ import annotations
 
 import math
 
+from modesel.candidates.base import canonical_modes, get_family
 from modesel.modeset import FieldModes, ModeSet
 
 
@@ -17,6 +26,11 @@ class SearchSpace:
 
     def __init__(self, spec):
         self.spec = spec
+        # the family objects, held (and pickled to worker processes) with the space
+        self.families = {f.family: get_family(f.family) for space in spec.fields for f in space.families}
+
+    def _family(self, name: str):
+        return self.families[name] if name in self.families else get_family(name)
 
     def suggest(self, trial) -> ModeSet:
         fields = {}
@@ -29,6 +43,17 @@ class SearchSpace:
                       for p, (low, high) in fam.params.items()}
             fields[space.field] = FieldModes(family, count, params)
         return ModeSet(fields)
+
+    def canonical(self, modeset: ModeSet) -> ModeSet:
+        """The simplest description of the same shapes, field by field
+        (`modesel.candidates.base.canonical_modes`); fields outside the
+        space are canonicalised too."""
+        out = {}
+        for name, fm in modeset.fields.items():
+            family, count, params = canonical_modes(name, fm.family, fm.count, fm.params,
+                                                    lookup=self._family)
+            out[name] = FieldModes(family, count, params)
+        return ModeSet(out)
 
     def params(self, modeset: ModeSet) -> dict:
         """Trial parameters that reproduce `modeset` (for `study.enqueue_trial`)."""
@@ -67,11 +92,17 @@ class SearchSpace:
         return True
 
     def size(self) -> float:
-        """Number of distinct discrete sets (inf with continuous parameters)."""
+        """Number of distinct discrete sets, counted on their canonical forms
+        (inf with continuous parameters)."""
         total = 1.0
         for space in self.spec.fields:
-            n = 0.0
+            if any(fam.params for fam in space.families):
+                return math.inf
+            forms = set()
             for fam in space.families:
-                n += math.inf if fam.params else fam.max_count - fam.min_count + 1
-            total *= n
+                for count in range(fam.min_count, fam.max_count + 1):
+                    family, n, params = canonical_modes(space.field, fam.family, count,
+                                                        lookup=self._family)
+                    forms.add((family, n, tuple(sorted(params.items()))))
+            total *= len(forms)
         return total
