@@ -167,6 +167,22 @@ class Family(ABC):
 
 _REGISTRY: dict[str, Family] = {}
 
+#: the family modules of this package; each registers its families on import
+#: (add yours here). They are loaded on the first look-up, by name, so that
+#: this module never imports the modules that import it.
+FAMILY_MODULES = ("polynomial", "cosine", "clamped", "relaxed_root", "relaxed_tipmass",
+                  "elastodyn", "linear", "sine", "fem")
+_loaded = False
+
+
+def _load_families() -> None:
+    global _loaded
+    if not _loaded:
+        import importlib
+        for name in FAMILY_MODULES:
+            importlib.import_module(f"{__package__}.{name}")
+        _loaded = True
+
 
 def register(family_cls):
     """Class decorator: add a family to the registry under its `name`."""
@@ -176,7 +192,7 @@ def register(family_cls):
 
 
 def get_family(name: str) -> Family:
-    from modesel import candidates  # noqa: F401  (imports every family module)
+    _load_families()
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -185,7 +201,7 @@ def get_family(name: str) -> Family:
 
 def families(field: str | None = None) -> list[Family]:
     """All registered families, or those describing `field`."""
-    from modesel import candidates  # noqa: F401
+    _load_families()
     return [f for f in _REGISTRY.values() if field is None or field in f.fields]
 
 

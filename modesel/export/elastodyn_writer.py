@@ -45,7 +45,7 @@ from openfast_io.FAST_reader import InputReader_OpenFAST
 from openfast_io.FAST_writer import InputWriter_OpenFAST
 
 from modesel.errors import ModeselError
-from modesel.export import stations, write_text
+from modesel.export.common import stations, write_text
 from modesel.export.polyfit import PolynomialFit, fit_mode_polynomial
 from modesel.modeset import FIELDS
 from modesel.turbine.elastodyn import Deck, has_label, read_deck, referenced_file
@@ -242,7 +242,7 @@ class ElastoDynExport:
 def export_elastodyn(modeset, shapes: dict, turbine, outdir, *, weighting: str = "uniform") -> ElastoDynExport:
     """Write ElastoDyn main/tower/blade files for `modeset` into `outdir`.
 
-    `shapes` is {field: FieldShapes} (`modesel.export.field_shapes`) on
+    `shapes` is {field: FieldShapes} (`modesel.export.common.field_shapes`) on
     `turbine` (whose `source` is the deck). Returns the report; also writes it
     as `<stem>_modesel_fits.json` next to the files.
     """

@@ -28,7 +28,7 @@ import json
 
 import numpy as np
 
-from modesel.export import stations, write_text
+from modesel.export.common import stations, write_text
 from modesel.multibody.shape_integrals import ILL_CONDITIONED, shape_integrals
 
 FORMAT = "modesel-modeset-export/1"

@@ -92,7 +92,7 @@ def export_openfast_case(modeset, case, outdir, *, tmax: float | None = None,
     Returns (path of the new .fst, ElastoDynExport report). Refuses, before
     writing anything, a set ElastoDyn cannot hold, an output folder inside
     the case's files, or a case that is not an OpenFAST main file."""
-    from modesel.export import field_shapes
+    from modesel.export.common import field_shapes
     from modesel.export.elastodyn_writer import export_elastodyn
     from modesel.simulation.api import load_scene
     from modesel.simulation.fst import is_fst
