@@ -80,9 +80,11 @@ def run(args, engine=None) -> int:
     write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
     summary = refresh(out, engine=engine, log=say)
     total = len(outcome.optuna_study.get_trials(deepcopy=False))
-    print(f"{study.name}: {outcome.n_new} new trials ({total} in the study"
+    print(f"{study.name}: {outcome.n_new} new trials (sets evaluated by this command"
+          + (f"; {outcome.n_repeats} more proposed sets already evaluated" if outcome.n_repeats else "")
+          + f"), {total} in the study"
           + (f", {outcome.requeued} interrupted re-queued" if outcome.requeued else "")
-          + f"); storage {mask_url(storage)}")
+          + f"; storage {mask_url(storage)}")
     for name, ref in outcome.references.items():
         if ref.info.get("kind") == "internal":
             counts = " ".join(f"{f}={ref.info['family']}:{n}" for f, n in ref.info["counts"].items())

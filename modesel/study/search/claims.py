@@ -21,8 +21,9 @@ larger ticket, so two trials never both simulate a set. (Ordering by trial
 number alone does not do that: the number is fixed when the trial is
 created, before its set is known, so a trial created later that claimed
 first and one created earlier that claimed second both simulated.)
-Trials cut short by an interruption (fail_reason ``interrupted``) and
-repeats never own a set.
+Trials cut short by an interruption (fail_reason ``interrupted``), trials
+of a worker that died (failed by the storage's heartbeat: FAIL with no
+record and no reason) and repeats never own a set.
 """
 from __future__ import annotations
 
@@ -36,12 +37,22 @@ def interrupted(trial) -> bool:
     return trial.user_attrs.get("fail_reason") == INTERRUPTED
 
 
+def abandoned(trial) -> bool:
+    """Whether `trial` ended without a result of its own: interrupted, or
+    failed by the storage because its worker died (FAIL with neither a
+    fail_reason nor values nor duplicate_of)."""
+    import optuna
+    a = trial.user_attrs
+    return interrupted(trial) or (trial.state == optuna.trial.TrialState.FAIL and "fail_reason" not in a
+                                  and "duplicate_of" not in a)
+
+
 def distinct_sets(study) -> set:
     """Labels of the mode sets evaluated so far (interrupted trials excluded)."""
     import optuna
     TS = optuna.trial.TrialState
     return {t.user_attrs["modeset"] for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
-            if "modeset" in t.user_attrs and not interrupted(t)}
+            if "modeset" in t.user_attrs and not abandoned(t)}
 
 
 def _claims(study, trial, label) -> list:
@@ -50,7 +61,7 @@ def _claims(study, trial, label) -> list:
     TS = optuna.trial.TrialState
     return [t for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL, TS.RUNNING))
             if t.number != trial.number and t.user_attrs.get("modeset") == label
-            and not interrupted(t) and "duplicate_of" not in t.user_attrs]
+            and not abandoned(t) and "duplicate_of" not in t.user_attrs]
 
 
 def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
