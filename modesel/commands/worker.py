@@ -42,7 +42,7 @@ def run(args, engine=None) -> int:
                          n_jobs=args.n_jobs, seed=args.seed, engine=engine, cache_dir=cache, log=say,
                          salt=salt)
     trials = outcome.optuna_study.get_trials(deepcopy=False)
-    print(f"{study.name}: {outcome.n_new} trials run by this worker (new sets it evaluated)"
-          + (f" (+{outcome.n_repeats} repeats of evaluated sets)" if outcome.n_repeats else "")
-          + f", {len(trials)} in the study at {mask_url(outcome.storage_url)}")
+    print(f"{study.name}: {outcome.n_new} trials run by this worker (new sets it evaluated"
+          + (f"; {outcome.n_repeats} more proposed sets already evaluated" if outcome.n_repeats else "")
+          + f"), {len(trials)} in the study at {mask_url(outcome.storage_url)}")
     return 0

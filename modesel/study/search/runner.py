@@ -71,8 +71,9 @@ class Owned:
     ``owner``, `storage.process_owner`)."""
 
     def __init__(self, objective: Objective):
+        import uuid
         self.objective = objective
-        self.owner = process_owner()
+        self.owner = process_owner(run=uuid.uuid4().hex[:12])
 
     def __call__(self, trial):
         trial.set_user_attr(OWNER, self.owner)
@@ -264,7 +265,7 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
     if private:
         note_lost_trials(opt, out_dir, log)
     n_before = len(opt.get_trials(deepcopy=False))
-    requeued = requeue_interrupted(opt, store)
+    requeued = requeue_interrupted(opt, store, private=private)
     baseline = queue_baseline(opt, study, scenes)
     stop = StopWhenMet(study.criterion(), study.budget.keep_searching_trials) \
         if study.budget.stop_when_met else None

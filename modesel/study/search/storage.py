@@ -17,7 +17,7 @@ Faults (issue 13):
 - the journal lock is an `flock` (`FlockLock`) that dies with its process, so
   a killed run leaves no lock file that delays the next one;
 - each running trial names its process (user attribute ``owner``:
-  host:pid:start time); a rerun marks the RUNNING trials of dead processes
+  host:pid:start time:run); a rerun marks the RUNNING trials of dead processes
   interrupted and queues their sets again once, and leaves the trials of live
   processes alone. On RDB storages a heartbeat does the same for other
   machines (`RetryFailedTrialCallback`, one retry).
@@ -303,17 +303,18 @@ def _start_time(pid: int) -> str | None:
     return _stat(pid)[1]
 
 
-def process_owner(pid: int | None = None) -> str:
-    """'host:pid:start' naming this process (or `pid`) uniquely, even after pid reuse."""
+def process_owner(pid: int | None = None, run: str = "") -> str:
+    """'host:pid:start:run' naming this process (or `pid`) uniquely, even after
+    pid reuse; `run` tells apart several searches made by one process."""
     pid = os.getpid() if pid is None else pid
-    return f"{socket.gethostname()}:{pid}:{_start_time(pid) or '?'}"
+    return f"{socket.gethostname()}:{pid}:{_start_time(pid) or '?'}:{run}"
 
 
 def owner_alive(owner: str) -> bool | None:
     """Whether the process named by `owner` runs: True/False on this host,
     None (unknown) for another host."""
     try:
-        host, pid, start = str(owner).rsplit(":", 2)
+        host, pid, start, _ = str(owner).rsplit(":", 3)
         pid = int(pid)
     except ValueError:
         return None
@@ -331,9 +332,12 @@ def owner_alive(owner: str) -> bool | None:
     return now is None or start == "?" or now == start
 
 
-def dead_running_trials(opt) -> list:
+def dead_running_trials(opt, *, private: bool = False) -> list:
     """RUNNING trials whose process is gone: its owner (on this host) is dead,
-    or it never named one and started more than STALE_UNOWNED_S ago."""
+    or it never named one (a process killed between creating the trial and
+    naming itself, or a modesel before owners) and either the storage is
+    `private` (the output folder's own journal) or it started more than
+    STALE_UNOWNED_S ago."""
     import datetime
 
     import optuna
@@ -344,7 +348,8 @@ def dead_running_trials(opt) -> list:
         if owner is not None:
             if owner_alive(owner) is False:
                 dead.append(t)
-        elif t.datetime_start is None or (now - t.datetime_start).total_seconds() > STALE_UNOWNED_S:
+        elif private or t.datetime_start is None or \
+                (now - t.datetime_start).total_seconds() > STALE_UNOWNED_S:
             dead.append(t)
     return dead
 
@@ -395,16 +400,17 @@ def fail_interrupted(opt, storage, number: int) -> None:
     opt.tell(number, state=optuna.trial.TrialState.FAIL)
 
 
-def requeue_interrupted(opt, storage) -> int:
+def requeue_interrupted(opt, storage, *, private: bool = False) -> int:
     """Queue again the sets whose trials an interruption cut short. RUNNING
-    trials whose process is dead (`dead_running_trials`) are first marked
+    trials whose process is dead (`dead_running_trials`; `private`: the
+    output folder's own journal) are first marked
     FAIL 'interrupted'; those of live processes are left to them. Each interrupted trial is
     considered once (study user attribute ``requeued``); its set is not
     queued when it has been evaluated since or is queued already (the copy
     would only repeat it). Returns how many were queued."""
     import optuna
     TS = optuna.trial.TrialState
-    for t in dead_running_trials(opt):
+    for t in dead_running_trials(opt, private=private):
         try:
             fail_interrupted(opt, storage, t.number)
         except (optuna.exceptions.UpdateFinishedTrialError, RuntimeError, ValueError):
