@@ -66,6 +66,19 @@ def die_with_parent(parent: int, poll_s: float = 0.1) -> None:
     threading.Thread(target=watch, name="modesel-parent-watch", daemon=True).start()
 
 
+_WATCHED = []
+
+
+def worker_init(parent: int) -> None:
+    """Start of a worker process (loky initializer, run once per process
+    before any task): ignore SIGINT (the study process stops its workers)
+    and die with the study process `parent`."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if parent not in _WATCHED:
+        _WATCHED.append(parent)
+        die_with_parent(parent)
+
+
 class Owned:
     """The objective, with the trial's process recorded first (user attribute
     ``owner``, `storage.process_owner`)."""
@@ -133,8 +146,7 @@ def optimize_worker(objective: Objective, storage_url, study, sampler_name: str,
     parent)."""
     _quiet_optuna()
     if parent is not None:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        die_with_parent(parent)
+        worker_init(parent)
     owned = Owned(objective)
     try:
         sampler = make_sampler(sampler_name, seed, n_trials)
@@ -306,18 +318,22 @@ def _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, 
     from concurrent.futures import FIRST_COMPLETED, wait
 
     from joblib.externals.loky import get_reusable_executor
-    executor = get_reusable_executor(max_workers=len(shares), reuse=False)
+    parent = os.getpid()
+    executor = get_reusable_executor(max_workers=len(shares), reuse=False, initializer=worker_init,
+                                     initargs=(parent,))
     futures = [executor.submit(optimize_worker, objective, storage, study, study.search.sampler,
-                               worker_seed_i, share, timeout, callbacks, None, os.getpid())
+                               worker_seed_i, share, timeout, callbacks, None, parent)
                for worker_seed_i, share in zip(seeds, shares)]
     try:
         pending = set(futures)
         while pending:
             _, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
             poll()
-    except KeyboardInterrupt:
+        results = [f.result() for f in futures]
+    except BaseException:
         # stop the workers and wait until they are gone, so that no trial
         # finishes after the results of the finished trials have been written
         executor.shutdown(wait=True, kill_workers=True)
         raise
-    return [f.result() for f in futures]
+    executor.shutdown(wait=True)        # no idle worker outlives the search
+    return results

@@ -1,0 +1,231 @@
+"""Fault injection (issue 13): `modesel run --n-jobs 2` killed with SIGKILL at
+random instants, and its journal cut at random byte offsets, then resumed
+each time. Checked after every fault: no process of the killed study
+survives (its process group is empty), no complete trial is lost, no set is
+simulated twice; at the end, the study holds the same evaluated sets with the
+same values as an uninterrupted run.
+
+The study is the fake problem of tests/test_search.py (25 discrete sets,
+deterministic errors and costs), run in a subprocess through
+tests/faults/fake_modesel.py so that a whole run takes seconds. The default
+run kills 3 times and cuts 2 times; `-m slow` kills 20 more times and cuts 8
+more times (random instants and offsets from a fixed seed, printed).
+"""
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import optuna
+import pandas as pd
+import pytest
+
+from test_search import make_study
+
+REPO = Path(__file__).resolve().parents[2]
+LAUNCHER = Path(__file__).with_name("fake_modesel.py")
+N_SETS = 25                   # test_exact:1..5 for tower_fa and blade_flap
+
+
+def new_study(folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    return make_study(folder, n_trials=40, tower_families='["test_exact"]')
+
+
+def launch(study: Path, out: Path, *extra) -> subprocess.Popen:
+    """`modesel run` in its own session (so its process group can be checked and cleaned)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), str(REPO / "tests"),
+                                                       os.environ.get("PYTHONPATH", "")]))
+    return subprocess.Popen([sys.executable, str(LAUNCHER), "run", str(study), "--out", str(out),
+                             "--n-jobs", "2", *extra], cwd=study.parent, env=env, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def group_members(pgid: int) -> list:
+    """Live (not zombie) processes of process group `pgid`."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            fields = Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] not in "ZX":
+            found.append(int(entry))
+    return found
+
+
+def kill_at(proc: subprocess.Popen, delay: float) -> list:
+    """SIGKILL the study process after `delay` s (unless it ended first); return
+    the processes of its group still alive 3 s later (then kill them)."""
+    try:
+        proc.communicate(timeout=delay)
+        return []                                   # finished before the fault
+    except subprocess.TimeoutExpired:
+        pass
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.communicate()
+    deadline = time.monotonic() + 3.0
+    while (alive := group_members(proc.pid)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if alive:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return alive
+
+
+def finish(proc: subprocess.Popen, timeout: float = 180.0) -> tuple:
+    out, err = proc.communicate(timeout=timeout)
+    assert "Traceback" not in err, err
+    return proc.returncode, out, err
+
+
+def trials(out: Path) -> list:
+    from optuna.storages.journal import JournalFileBackend
+    path = out / "study.journal"
+    if not path.exists() or path.stat().st_size == 0:
+        return []
+    storage = optuna.storages.JournalStorage(JournalFileBackend(str(path)))
+    try:
+        return optuna.load_study(study_name="fake", storage=storage).get_trials(deepcopy=False)
+    except KeyError:                               # killed before the study was created
+        return []
+
+
+def evaluated(all_trials) -> dict:
+    """{label: values} of the trials that simulated their set and completed."""
+    TS = optuna.trial.TrialState
+    return {t.user_attrs["modeset"]: tuple(t.values) for t in all_trials
+            if t.state == TS.COMPLETE and "duplicate_of" not in t.user_attrs}
+
+
+def simulated_twice(all_trials) -> list:
+    """Labels recorded by more than one trial that simulated it (not repeats,
+    not trials cut short: a killed trial's set is simulated again, once)."""
+    TS = optuna.trial.TrialState
+    labels = [t.user_attrs["modeset"] for t in all_trials
+              if "modeset_json" in t.user_attrs and "duplicate_of" not in t.user_attrs
+              and (t.state == TS.COMPLETE or (t.state == TS.FAIL
+                                              and t.user_attrs.get("fail_reason") != "interrupted"))]
+    return sorted({x for x in labels if labels.count(x) > 1})
+
+
+def run_to_the_end(study: Path, out: Path) -> dict:
+    """Resume until every set is evaluated (a run stops at its budget)."""
+    for _ in range(4):
+        code, _, err = finish(launch(study, out))
+        assert code == 0, err
+        done = evaluated(trials(out))
+        if len(done) == N_SETS:
+            break
+    assert not [t.number for t in trials(out) if t.state == optuna.trial.TrialState.RUNNING]
+    assert not simulated_twice(trials(out))
+    return done
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory) -> dict:
+    folder = tmp_path_factory.mktemp("uninterrupted")
+    done = run_to_the_end(new_study(folder), folder / "out")
+    assert len(done) == N_SETS
+    return done
+
+
+def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> None:
+    rng = random.Random(seed)
+    study = new_study(tmp_path)
+    out = tmp_path / "out"
+    kept, report = {}, []
+    for i in range(kills):
+        delay = rng.uniform(0.5, 8.0)
+        survivors = kill_at(launch(study, out), delay)
+        assert survivors == [], f"kill {i} at {delay:.2f} s (seed {seed}): processes survived: {survivors}"
+        now = trials(out)
+        done = evaluated(now)
+        lost = {k for k in kept if k not in done or done[k] != kept[k]}
+        assert not lost, f"kill {i} at {delay:.2f} s (seed {seed}): complete trials lost: {lost}"
+        twice = simulated_twice(now)
+        assert not twice, f"kill {i} at {delay:.2f} s (seed {seed}): simulated twice: {twice}"
+        kept = done
+        report.append(f"{delay:.2f}s:{len(done)}")
+    final = run_to_the_end(study, out)
+    assert all(final[k] == v for k, v in kept.items())
+    assert final == uninterrupted                   # the same sets, the same values
+    rows = pd.read_csv(out / "trials.csv")
+    assert not rows["modeset"].isna().any()         # no row without a mode set
+    print(f"kills (seed {seed}): {' '.join(report)}")
+
+
+def test_kill_9_three_times_loses_and_repeats_nothing(tmp_path, uninterrupted):
+    kill_cycle(tmp_path, 3, 13, uninterrupted)
+
+
+@pytest.mark.slow
+def test_kill_9_twenty_times_loses_and_repeats_nothing(tmp_path, uninterrupted):
+    kill_cycle(tmp_path, 20, 1313, uninterrupted)
+
+
+def truncate_cycle(tmp_path: Path, cuts: int, seed: int, uninterrupted: dict) -> None:
+    rng = random.Random(seed)
+    study = new_study(tmp_path)
+    out = tmp_path / "out"
+    code, _, err = finish(launch(study, out, "--n-trials", "12"))
+    assert code == 0, err
+    for i in range(cuts):
+        journal = out / "study.journal"
+        data = journal.read_bytes()
+        first_end = data.index(b"\n") + 1
+        at = rng.randrange(first_end, len(data))      # keep the study's first record
+        journal.write_bytes(data[:at])
+        before = evaluated(trials(out))               # what the cut journal still holds whole
+        boundary = data.rfind(b"\n", 0, at) + 1
+        code, _, err = finish(launch(study, out, "--n-trials", "4"))
+        assert code == 0, f"cut {i} at byte {at} (seed {seed}): {err}"
+        notes = [ln for ln in err.splitlines() if "damaged tail" in ln]
+        if boundary != at:
+            assert len(notes) == 1 and f"dropped {at - boundary} bytes" in notes[0], err
+            assert any(p.read_bytes() == data[:at] for p in out.glob("study.journal.damaged-*"))
+        else:
+            assert not notes, err
+        after = evaluated(trials(out))
+        assert all(after.get(k) == v for k, v in before.items()), f"cut {i} at byte {at}: lost"
+        assert not simulated_twice(trials(out))
+    assert run_to_the_end(study, out) == uninterrupted
+
+
+def test_journal_cut_at_random_offsets_resumes_twice(tmp_path, uninterrupted):
+    truncate_cycle(tmp_path, 2, 7, uninterrupted)
+
+
+@pytest.mark.slow
+def test_journal_cut_at_random_offsets_resumes_eight_times(tmp_path, uninterrupted):
+    truncate_cycle(tmp_path, 8, 77, uninterrupted)
+
+
+def test_sigint_to_the_process_group_leaves_no_row_without_a_mode_set(tmp_path):
+    study = new_study(tmp_path)
+    out = tmp_path / "out"
+    proc = launch(study, out)
+    deadline = time.monotonic() + 120
+    while len(evaluated(trials(out))) < 3:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGINT)                # Ctrl-C in a terminal reaches the whole group
+    code, _, err = finish(proc)
+    assert code == 130, err
+    assert group_members(proc.pid) == []
+    rows = pd.read_csv(out / "trials.csv")
+    failed = rows[rows["status"] == "FAIL"]
+    assert not rows["modeset"].isna().any() and not failed["reason"].isna().any(), rows
+    start = time.monotonic()                          # no stale lock delays the next run
+    code, _, err = finish(launch(study, out, "--n-trials", "1"))
+    assert code == 0, err
+    assert time.monotonic() - start < 60.0
