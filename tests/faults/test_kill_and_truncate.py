@@ -8,7 +8,8 @@ same values as an uninterrupted run.
 The study is the fake problem of tests/test_search.py (25 discrete sets,
 deterministic errors and costs), run in a subprocess through
 tests/faults/fake_modesel.py so that a whole run takes seconds. The default
-run kills 3 times and cuts 2 times; `-m slow` kills 20 more times and cuts 8
+run kills 3 times and cuts 2 times; `-m slow` kills 20 more times (one kill in four during the start-up, the others
+at a random instant up to 3 s after the first trial record of that run) and cuts 8
 more times (random instants and offsets from a fixed seed, printed).
 """
 from __future__ import annotations
@@ -61,9 +62,25 @@ def group_members(pgid: int) -> list:
     return found
 
 
-def kill_at(proc: subprocess.Popen, delay: float) -> list:
-    """SIGKILL the study process after `delay` s (unless it ended first); return
-    the processes of its group still alive 3 s later (then kill them)."""
+def trial_records(out: Path) -> int:
+    """Journal records that create or finish trials (op codes 4 and 6)."""
+    path = out / "study.journal"
+    if not path.exists():
+        return 0
+    data = path.read_bytes()
+    return data.count(b'{"op_code":4,') + data.count(b'{"op_code":6,')
+
+
+def kill_at(proc: subprocess.Popen, delay: float, out: Path | None = None) -> list:
+    """SIGKILL the study process `delay` s after it starts writing trials
+    (after `delay` s from its start when `out` is None), unless it ended
+    first; return the processes of its group still alive 3 s later (then kill
+    them)."""
+    if out is not None:                             # start-up (imports, references) is not the target
+        before = trial_records(out)
+        deadline = time.monotonic() + 120.0
+        while trial_records(out) == before and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
     try:
         proc.communicate(timeout=delay)
         return []                                   # finished before the fault
@@ -145,8 +162,10 @@ def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> No
     out = tmp_path / "out"
     kept, report = {}, []
     for i in range(kills):
-        delay = rng.uniform(0.5, 8.0)
-        survivors = kill_at(launch(study, out), delay)
+        # one kill in four at a random instant of the start-up, the others while trials run
+        early = i % 4 == 0
+        delay = rng.uniform(0.2, 4.0) if early else rng.uniform(0.0, 3.0)
+        survivors = kill_at(launch(study, out), delay, None if early else out)
         assert survivors == [], f"kill {i} at {delay:.2f} s (seed {seed}): processes survived: {survivors}"
         now = trials(out)
         done = evaluated(now)
@@ -155,13 +174,13 @@ def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> No
         twice = simulated_twice(now)
         assert not twice, f"kill {i} at {delay:.2f} s (seed {seed}): simulated twice: {twice}"
         kept = done
-        report.append(f"{delay:.2f}s:{len(done)}")
+        report.append(f"{'start+' if early else 'trials+'}{delay:.2f}s:{len(done)}")
     final = run_to_the_end(study, out)
     assert all(final[k] == v for k, v in kept.items())
     assert final == uninterrupted                   # the same sets, the same values
     rows = pd.read_csv(out / "trials.csv")
     assert not rows["modeset"].isna().any()         # no row without a mode set
-    print(f"kills (seed {seed}): {' '.join(report)}")
+    print(f"kills (seed {seed}; instant: complete sets after the kill): {' '.join(report)}")
 
 
 def test_kill_9_three_times_loses_and_repeats_nothing(tmp_path, uninterrupted):

@@ -254,3 +254,56 @@ def test_plain_postgresql_url_names_an_installed_driver():
     assert importlib.util.find_spec(driver) is not None, url
     assert url.endswith("user@127.0.0.1:5432/db")
     assert sqlalchemy_url("sqlite:///x.db") == "sqlite:///x.db"
+
+
+# --------------------------------------------------------------------------- trial owners
+
+def _dead_owner() -> str:
+    from modesel.study.search.storage import process_owner
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(0.2)"])
+    owner = process_owner(proc.pid, run="gone")
+    proc.wait()
+    return owner
+
+
+def _shared_study(tmp_path):
+    """A journal used as a shared storage (not an output folder's own)."""
+    from modesel.study.search.storage import open_storage, open_study
+    from modesel.study.spec import load_study
+    study = load_study(make_study(tmp_path, n_trials=4, tower_families='["test_exact"]'))
+    storage = open_storage(str(tmp_path / "shared.journal"))
+    return study, storage, open_study(study, str(tmp_path / "shared.journal"), storage=storage)
+
+
+def test_rerun_requeues_dead_trials_once_and_leaves_live_ones(tmp_path):
+    from modesel.study.search.space import SearchSpace
+    from modesel.study.search.storage import OWNER, process_owner, requeue_interrupted
+    study, storage, opt = _shared_study(tmp_path)
+    space = SearchSpace(study.search)
+    live, dead = opt.ask(), opt.ask()
+    for trial, owner in ((live, process_owner(run="live")), (dead, _dead_owner())):
+        space.suggest(trial)
+        trial.set_user_attr(OWNER, owner)
+    assert requeue_interrupted(opt, storage) == 1
+    assert requeue_interrupted(opt, storage) == 0                      # once, not at every rerun
+    TS = optuna.trial.TrialState
+    trials = opt.get_trials(deepcopy=False)
+    assert trials[live.number].state == TS.RUNNING                   # its process lives: left to it
+    assert trials[dead.number].state == TS.FAIL and trials[dead.number].user_attrs["fail_reason"] == "interrupted"
+    waiting = [t for t in trials if t.state == TS.WAITING]
+    assert len(waiting) == 1
+    again = opt.ask()                                                  # takes the queued trial
+    space.suggest(again)
+    assert again.number == waiting[0].number and again.params == trials[dead.number].params
+
+
+def test_a_claim_held_by_a_dead_process_is_not_waited_for(tmp_path):
+    from modesel.study.search.claims import claim
+    from modesel.study.search.storage import OWNER
+    _, _, opt = _shared_study(tmp_path)
+    gone, mine = opt.ask(), opt.ask()
+    for key, value in ((OWNER, _dead_owner()), ("modeset", "tower_fa=test_exact:1"), ("ticket", 1)):
+        gone.set_user_attr(key, value)
+    start = time.monotonic()
+    assert claim(mine, "tower_fa=test_exact:1", wait_s=60.0) is None     # simulates it itself
+    assert time.monotonic() - start < 5.0

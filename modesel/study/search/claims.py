@@ -64,12 +64,20 @@ def _claims(study, trial, label) -> list:
             and not abandoned(t) and "duplicate_of" not in t.user_attrs]
 
 
+def _dead(trial) -> bool:
+    """Whether the process running `trial` is known to be gone (its ``owner``
+    on this host is dead): it will never finish, so it is not waited for."""
+    from modesel.study.search.storage import OWNER, owner_alive
+    owner = trial.user_attrs.get(OWNER)
+    return owner is not None and owner_alive(owner) is False
+
+
 def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
     """Claim the set `label` for the running `trial` (an optuna Trial).
 
     Returns the finished trial whose record `trial` takes, or None when
     `trial` simulates the set itself (also when the claimant ahead has not
-    finished within `wait_s` seconds, e.g. a worker that died)."""
+    finished within `wait_s` seconds, or its process is known to be dead)."""
     import optuna
     study = trial.study
     trial.set_user_attr("modeset", label)                                   # 1. choosing
@@ -85,8 +93,8 @@ def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
         finished = [t for t in rivals if t.state != optuna.trial.TrialState.RUNNING]
         if finished:
             return finished[0]
-        ahead = [t for t in rivals
-                 if "ticket" not in t.user_attrs or (int(t.user_attrs["ticket"]), t.number) < mine]
+        ahead = [t for t in rivals if not _dead(t) and
+                 ("ticket" not in t.user_attrs or (int(t.user_attrs["ticket"]), t.number) < mine)]
         if not ahead or time.monotonic() > deadline:
             return None
         time.sleep(pause)
