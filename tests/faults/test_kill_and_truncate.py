@@ -9,7 +9,9 @@ The study is the fake problem of tests/test_search.py (25 discrete sets,
 deterministic errors and costs), run in a subprocess through
 tests/faults/fake_modesel.py so that a whole run takes seconds. The default
 run kills 3 times and cuts 2 times; `-m slow` kills 20 more times (one kill in four during the start-up, the others
-at a random instant up to 3 s after the first trial record of that run) and cuts 8
+at a random instant up to 1.5 s after the first trial record of that run;
+each run has a budget of 6 sets and each fake simulation takes 0.4 s, so the
+kills land while sets are being simulated and the study progresses) and cuts 8
 more times (random instants and offsets from a fixed seed, printed).
 """
 from __future__ import annotations
@@ -31,6 +33,8 @@ from test_search import make_study
 REPO = Path(__file__).resolve().parents[2]
 LAUNCHER = Path(__file__).with_name("fake_modesel.py")
 N_SETS = 25                   # test_exact:1..5 for tower_fa and blade_flap
+SIM_S = 0.4                   # wall seconds added to each fake simulation
+PER_RUN = "6"                 # --n-trials of each run that is killed
 
 
 def new_study(folder: Path) -> Path:
@@ -40,8 +44,9 @@ def new_study(folder: Path) -> Path:
 
 def launch(study: Path, out: Path, *extra) -> subprocess.Popen:
     """`modesel run` in its own session (so its process group can be checked and cleaned)."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), str(REPO / "tests"),
-                                                       os.environ.get("PYTHONPATH", "")]))
+    env = dict(os.environ, MODESEL_FAKE_SIM_S=str(SIM_S),
+               PYTHONPATH=os.pathsep.join([str(REPO), str(REPO / "tests"), str(REPO / "tests" / "faults"),
+                                           os.environ.get("PYTHONPATH", "")]))
     return subprocess.Popen([sys.executable, str(LAUNCHER), "run", str(study), "--out", str(out),
                              "--n-jobs", "2", *extra], cwd=study.parent, env=env, start_new_session=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -74,8 +79,8 @@ def trial_records(out: Path) -> int:
 def kill_at(proc: subprocess.Popen, delay: float, out: Path | None = None) -> list:
     """SIGKILL the study process `delay` s after it starts writing trials
     (after `delay` s from its start when `out` is None), unless it ended
-    first; return the processes of its group still alive 3 s later (then kill
-    them)."""
+    first (then None); return the processes of its group still alive 3 s
+    later (then kill them)."""
     if out is not None:                             # start-up (imports, references) is not the target
         before = trial_records(out)
         deadline = time.monotonic() + 120.0
@@ -83,17 +88,23 @@ def kill_at(proc: subprocess.Popen, delay: float, out: Path | None = None) -> li
             time.sleep(0.02)
     try:
         proc.communicate(timeout=delay)
-        return []                                   # finished before the fault
+        return None                                 # finished before the fault
     except subprocess.TimeoutExpired:
         pass
     os.kill(proc.pid, signal.SIGKILL)
     proc.communicate()
-    deadline = time.monotonic() + 3.0
-    while (alive := group_members(proc.pid)) and time.monotonic() < deadline:
+    return survivors(proc.pid)
+
+
+def survivors(pgid: int, wait_s: float = 3.0) -> list:
+    """Processes of group `pgid` still alive `wait_s` s after its leader ended
+    (they are killed then, so that a failing test leaves none behind)."""
+    deadline = time.monotonic() + wait_s
+    while (alive := group_members(pgid)) and time.monotonic() < deadline:
         time.sleep(0.05)
     if alive:
         try:
-            os.killpg(proc.pid, signal.SIGKILL)
+            os.killpg(pgid, signal.SIGKILL)
         except ProcessLookupError:
             pass
     return alive
@@ -160,13 +171,14 @@ def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> No
     rng = random.Random(seed)
     study = new_study(tmp_path)
     out = tmp_path / "out"
-    kept, report = {}, []
+    kept, report, landed = {}, [], 0
     for i in range(kills):
         # one kill in four at a random instant of the start-up, the others while trials run
         early = i % 4 == 0
-        delay = rng.uniform(0.2, 4.0) if early else rng.uniform(0.0, 3.0)
-        survivors = kill_at(launch(study, out), delay, None if early else out)
-        assert survivors == [], f"kill {i} at {delay:.2f} s (seed {seed}): processes survived: {survivors}"
+        delay = rng.uniform(0.2, 4.0) if early else rng.uniform(0.0, 1.5)
+        survivors = kill_at(launch(study, out, "--n-trials", PER_RUN), delay, None if early else out)
+        assert not survivors, f"kill {i} at {delay:.2f} s (seed {seed}): processes survived: {survivors}"
+        landed += survivors is not None
         now = trials(out)
         done = evaluated(now)
         lost = {k for k in kept if k not in done or done[k] != kept[k]}
@@ -174,7 +186,9 @@ def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> No
         twice = simulated_twice(now)
         assert not twice, f"kill {i} at {delay:.2f} s (seed {seed}): simulated twice: {twice}"
         kept = done
-        report.append(f"{'start+' if early else 'trials+'}{delay:.2f}s:{len(done)}")
+        report.append(f"{'start+' if early else 'trials+'}{delay:.2f}s{'' if survivors is not None else '(ended)'}"
+                      f":{len(done)}")
+    assert landed >= 0.75 * kills, report             # the faults hit running studies
     final = run_to_the_end(study, out)
     assert all(final[k] == v for k, v in kept.items())
     assert final == uninterrupted                   # the same sets, the same values
@@ -240,7 +254,7 @@ def test_sigint_to_the_process_group_leaves_no_row_without_a_mode_set(tmp_path):
     os.killpg(proc.pid, signal.SIGINT)                # Ctrl-C in a terminal reaches the whole group
     code, _, err = finish(proc)
     assert code == 130, err
-    assert group_members(proc.pid) == []
+    assert survivors(proc.pid) == []
     rows = pd.read_csv(out / "trials.csv")
     failed = rows[rows["status"] == "FAIL"]
     assert not rows["modeset"].isna().any() and not failed["reason"].isna().any(), rows
