@@ -1,7 +1,10 @@
 """Two `modesel worker` processes on one study in a real PostgreSQL server:
 no trial is lost (every trial ends COMPLETE or FAIL) and no mode set is
-simulated twice. The test starts a throwaway cluster on loopback; it skips
-outside CI when PostgreSQL is not installed (.ci/run installs it)."""
+simulated twice, and the counts each worker prints add up to the sets the
+study simulated. The storage URL is the plain form the README gives
+(``postgresql://user@127.0.0.1:PORT/db``, no driver named). The test starts a
+throwaway cluster on loopback; it skips outside CI when PostgreSQL is not
+installed (.ci/run installs it)."""
 import glob
 import os
 import pwd
@@ -63,7 +66,7 @@ def postgres(tmp_path):
         con.autocommit = True
         con.cursor().execute("CREATE DATABASE study")
         con.close()
-        yield f"postgresql+psycopg2://modesel@127.0.0.1:{port}/study"
+        yield f"postgresql://modesel@127.0.0.1:{port}/study"
     finally:
         subprocess.run(prefix + [pg_ctl, "-D", str(data), "-m", "immediate", "stop"], capture_output=True)
         shutil.rmtree(root, ignore_errors=True)
@@ -113,11 +116,20 @@ def test_two_workers_share_a_study(postgres, tmp_path):
     outs = [p.communicate(timeout=600) for p in procs]
     for p, (out, err) in zip(procs, outs):
         assert p.returncode == 0, err
+    import re
+
     import optuna
-    study = optuna.load_study(study_name="pg_two_workers", storage=postgres)
+
+    from modesel.study.search import open_storage
+    study = optuna.load_study(study_name="pg_two_workers", storage=open_storage(postgres))
     trials = study.get_trials(deepcopy=False)
     states = {t.state for t in trials}
     assert states <= {optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL}, states
     simulated = [t.user_attrs["modeset"] for t in trials if "duplicate_of" not in t.user_attrs]
     assert len(simulated) == len(set(simulated)), simulated          # nothing simulated twice
     assert len(simulated) >= 6                                      # 3 per worker, none lost
+    printed = [int(re.search(r": (\d+) trials run by this worker", out).group(1)) for out, _ in outs]
+    evaluated = [t for t in trials if "duplicate_of" not in t.user_attrs and "modeset_json" in t.user_attrs]
+    assert printed == [3, 3] and sum(printed) == len(evaluated), (printed, len(evaluated))
+    for out, _ in outs:         # each worker's study total: what it saw when it ended
+        assert 6 <= int(re.search(r", (\d+) in the study", out).group(1)) <= len(trials)

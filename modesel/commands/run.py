@@ -102,7 +102,9 @@ def run(args, engine=None) -> int:
         raise _interrupted(exc, out, engine) from None
     write_run_info(out, dict(info, reference_info={k: r.info for k, r in outcome.references.items()}))
     summary = refresh(out, engine=engine, log=say)
-    print(f"{study.name}: {trial_counts(outcome, summary['ranked'])}; storage {mask_url(storage)}")
+    print(f"{study.name}: {trial_counts(outcome, summary['ranked'])}"
+          + (f"; {outcome.requeued} interrupted trials re-queued" if outcome.requeued else "")
+          + f"; storage {mask_url(storage)}")
     for name, ref in outcome.references.items():
         if ref.info.get("kind") == "internal":
             counts = " ".join(f"{f}={ref.info['family']}:{n}" for f, n in ref.info["counts"].items())

@@ -39,8 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from modesel.candidates.base import check_field_modes
-from modesel.errors import ModeselError, unknown_name
+from modesel.errors import ModeselError, did_you_mean, unknown_name
 from modesel.modeset import FieldModes, ModeSet
+from modesel.turbine.builtin import BUILTIN_TURBINES, builtin_elastodyn
 from modesel.model.effects import KEYS as EFFECT_KEYS
 from modesel.model.effects import validate as validate_effects
 from modesel.vocabulary import FIELDS, ROTOR_AZIMUTH, SCENE_DOFS, is_translation
@@ -100,6 +101,26 @@ class Scene:
 
     def effect(self, name: str, default=True):
         return self.effects.get(name, default)
+
+
+#: the most output rows (tmax/dt + 1) a simulation may produce: more would
+#: need gigabytes for the state history and the output table
+MAX_OUTPUT_ROWS = 10_000_000
+
+
+def check_time_grid(tmax: float, dt: float, *, file=None, where: str = "") -> int:
+    """The number of output rows of [0, tmax] every dt [s]; a one-line error
+    naming `tmax`/`dt` (prefixed `where`, e.g. 'scene[0].') when dt > tmax or
+    the rows would exceed MAX_OUTPUT_ROWS."""
+    if dt > tmax:
+        raise ModeselError(f"dt = {dt:g} s is larger than tmax = {tmax:g} s: the simulation would "
+                           f"produce no output step", file=file, field=f"{where}dt")
+    rows = tmax / dt + 1
+    if rows > MAX_OUTPUT_ROWS:
+        raise ModeselError(f"tmax / dt = {tmax:g} s / {dt:g} s gives {rows:.3g} output rows, more than "
+                           f"the {MAX_OUTPUT_ROWS:.0e} a simulation may hold in memory; shorten tmax or "
+                           f"raise dt", file=file, field=f"{where}tmax/dt")
+    return int(rows)
 
 
 def _number(value, file, fld, positive=False):
@@ -165,11 +186,19 @@ def scene_from_dict(data: dict, path: Path | None = None) -> Scene:
     tname = data["turbine"]
     if not isinstance(tname, str):
         raise ModeselError("must be a string", file=file, field="turbine")
-    if path is not None and tname != "nrel5mw" and not Path(tname).is_absolute():
-        tname = str((path.parent / tname).resolve())
+    given = tname
+    if builtin_elastodyn(tname) is None:
+        if path is not None and not Path(tname).is_absolute():
+            tname = str((path.parent / tname).resolve())
+        if not Path(tname).is_file():
+            hint = did_you_mean(given, BUILTIN_TURBINES) if not Path(given).suffix else ""
+            raise ModeselError(f"'{given}' is neither a built-in turbine ({', '.join(BUILTIN_TURBINES)}) "
+                               f"nor an existing ElastoDyn/.fst file (paths are relative to the scene "
+                               f"file){hint}", file=file, field="turbine")
     turbine = load_turbine(tname)
     tmax = _number(data.get("tmax", 10.0), file, "tmax", positive=True)
     dt = _number(data.get("dt", 0.01), file, "dt", positive=True)
+    check_time_grid(tmax, dt, file=file)
     modes_tbl = data.get("modes", {})
     _check_keys(modes_tbl, FIELDS, file, "modes")
     try:

@@ -13,7 +13,7 @@ from modesel.multibody.integrate import choose_method, integrate
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation.assembly import Built, build
 from modesel.simulation.results import SimulationResult
-from modesel.simulation.scene import Scene
+from modesel.simulation.scene import Scene, check_time_grid
 from modesel.simulation.stability import check_static_stability, coordinate_fields
 from modesel.vocabulary import is_blade_field, is_translation, parse_dof
 
@@ -21,6 +21,11 @@ from modesel.vocabulary import is_blade_field, is_translation, parse_dof
 #: drivetrain coordinates [rad] for divergence detection
 TRANSLATION_BOUND = 1e3
 ANGLE_BOUND = 1e6
+#: memory budget of one simulation's history [bytes]: float64 columns per
+#: output row, about 6 per DOF (q, qd, qdd and their channels) plus 60 others
+MAX_HISTORY_BYTES = 4 * 2**30
+HISTORY_COLUMNS_PER_DOF = 6
+HISTORY_COLUMNS = 60
 
 
 def divergence_bounds(built: Built) -> np.ndarray:
@@ -48,8 +53,10 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     progress: optional progress(t, tmax) hook of the integrator."""
     tmax = scene.tmax if tmax is None else float(tmax)
     dt = scene.dt if dt is None else float(dt)
-    if tmax <= 0 or dt <= 0:
-        raise ModeselError("tmax and dt must be positive", field="tmax/dt")
+    if not (tmax > 0 and dt > 0 and np.isfinite(tmax) and np.isfinite(dt)):
+        raise ModeselError(f"tmax and dt must be positive finite numbers, got tmax = {tmax:g} s, "
+                           f"dt = {dt:g} s", file=scene.path, field="tmax/dt")
+    rows = check_time_grid(tmax, dt, file=scene.path)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
     requested = scene.solver.get("method", "auto")
@@ -57,6 +64,12 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     n = len(names)
     if n == 0:
         raise ModeselError("the scene has no free degree of freedom", file=scene.path, field="dofs")
+    need = rows * (HISTORY_COLUMNS_PER_DOF * n + HISTORY_COLUMNS) * 8
+    if need > MAX_HISTORY_BYTES:
+        raise ModeselError(f"tmax / dt = {tmax:g} s / {dt:g} s with {n} DOFs needs about "
+                           f"{need / 2**30:.1f} GiB for the state history and outputs, more than "
+                           f"{MAX_HISTORY_BYTES / 2**30:.0f} GiB; shorten tmax or raise dt",
+                           file=scene.path, field="tmax/dt")
     lin = linearize(built.M_F, built.q0 * 0, built.qd0, names)
     if not all(np.all(np.isfinite(a)) for a in (lin.M, lin.C, lin.K)):
         raise ModeselError("the equations are not finite at the initial state (check the turbine's "

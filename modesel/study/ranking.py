@@ -31,6 +31,8 @@ def trial_table(trials, study) -> pd.DataFrame:
         if t.state not in (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL):
             continue
         a = t.user_attrs
+        if "modeset" not in a and t.state != optuna.trial.TrialState.COMPLETE:
+            continue        # stopped (interrupt, dead worker) before it proposed a set: nothing to report
         if a.get("duplicate_of") in by_number:   # a repeat: the record is the earlier trial's
             a = dict(by_number[a["duplicate_of"]].user_attrs, duplicate_of=a["duplicate_of"])
         row = {"trial": t.number, "modeset": a.get("modeset", "")}
@@ -60,7 +62,7 @@ def trial_table(trials, study) -> pd.DataFrame:
                    speed=a.get("speed", math.nan), cost=a.get("cost", math.nan),
                    meets_tolerance=bool(complete and verdict.meets),
                    status="COMPLETE" if complete else "FAIL",
-                   reason=a.get("fail_reason", "") if not complete else "",
+                   reason=(a.get("fail_reason") or "interrupted (its worker stopped)") if not complete else "",
                    duplicate_of=a.get("duplicate_of"))
         rows.append(row)
     df = pd.DataFrame(rows)

@@ -324,8 +324,12 @@ def internal_reference(scene, channels, simulate, *, family: str = "fem", tolera
     cache = None
     if cache_dir is not None:
         key = _cache_key(getattr(scene, "path", None), settings)
-        cache = Path(cache_dir) / f"internal_{re.sub(r'[^A-Za-z0-9_.-]', '_', name)}_{key}"
-        csv, meta = cache.with_suffix(".csv"), cache.with_suffix(".json")
+        stem = f"internal_{re.sub(r'[^A-Za-z0-9_-]', '_', name)[:100]}_{key}"   # no separator, no '..'
+        folder = Path(cache_dir).resolve()
+        csv, meta = folder / f"{stem}.csv", folder / f"{stem}.json"
+        cache = folder / stem
+        if csv.parent != folder:        # the cache stays inside its folder whatever the name
+            raise ModeselError(f"scene name {name!r} cannot name a cache file", field="scene.name")
         if csv.exists() and meta.exists():
             df = read_unit_csv(csv)
             info = json.loads(meta.read_text())

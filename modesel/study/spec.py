@@ -79,6 +79,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -224,6 +225,25 @@ class Study:
 
 # --------------------------------------------------------------------------- parsing helpers
 
+_SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}")
+
+
+def safe_name(value: str, *, file: str, field: str) -> str:
+    """`value` when it can name files and folders: 1-100 letters, digits or
+    ``_ . + -``, starting with a letter or digit, no ``..`` (so no path
+    separator and no way out of the output folder); else a one-line error."""
+    if not _SAFE_NAME.fullmatch(value) or ".." in value:
+        raise ModeselError(f"must be 1-100 letters, digits or '_.+-', starting with a letter or digit "
+                           f"and without '..' (it names files and folders), got {value!r}",
+                           file=file, field=field)
+    return value
+
+
+def slug(text: str) -> str:
+    """A safe name made from a file name (unsafe characters become '_')."""
+    name = re.sub(r"[^A-Za-z0-9_.+-]", "_", text).replace("..", "_")[:100].lstrip("._+-")
+    return name or "study"
+
 class _Reader:
     """Typed access to one TOML table with the study file and dotted path in every error."""
 
@@ -321,7 +341,8 @@ def _scenes(data, file: str, base: Path) -> tuple:
         r = _Reader(entry, f"scene[{i}]", file)
         r.allow(*schema.keys("scene"))
         path = r.path("path", base, required=True)
-        name = r.string("name", default=path.stem)
+        name = r.string("name")
+        name = slug(path.stem) if name is None else safe_name(name, file=file, field=r.at("name"))
         if name in names:
             raise r.error(f"scene name '{name}' used twice; give each scene a distinct name", "name")
         names.add(name)
@@ -523,7 +544,9 @@ def parse_study(text: str, path: str | Path) -> Study:
     reference, scenes = _reference(top.table("reference"), base, scenes)
     compare = _compare(top.table("compare", required=True))
     search = _search(top.table("search", required=True))
-    return Study(path=path, name=meta.string("name", default=path.stem),
+    name = meta.string("name")
+    name = slug(path.stem) if name is None else safe_name(name, file=file, field=meta.at("name"))
+    return Study(path=path, name=name,
                  description=meta.string("description", default=D("study", "description")), scenes=scenes,
                  reference=reference, compare=compare, search=search,
                  budget=_budget(top.table("budget")), run=_run(top.table("run"), base), text=text)

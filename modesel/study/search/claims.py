@@ -21,8 +21,9 @@ larger ticket, so two trials never both simulate a set. (Ordering by trial
 number alone does not do that: the number is fixed when the trial is
 created, before its set is known, so a trial created later that claimed
 first and one created earlier that claimed second both simulated.)
-Trials cut short by an interruption (fail_reason ``interrupted``) and
-repeats never own a set.
+Trials cut short by an interruption (fail_reason ``interrupted``), trials
+of a worker that died (failed by the storage's heartbeat: FAIL with no
+record and no reason) and repeats never own a set.
 """
 from __future__ import annotations
 
@@ -36,12 +37,22 @@ def interrupted(trial) -> bool:
     return trial.user_attrs.get("fail_reason") == INTERRUPTED
 
 
+def abandoned(trial) -> bool:
+    """Whether `trial` ended without a result of its own: interrupted, or
+    failed by the storage because its worker died (FAIL with neither a
+    fail_reason nor values nor duplicate_of)."""
+    import optuna
+    a = trial.user_attrs
+    return interrupted(trial) or (trial.state == optuna.trial.TrialState.FAIL and "fail_reason" not in a
+                                  and "duplicate_of" not in a)
+
+
 def distinct_sets(study) -> set:
     """Labels of the mode sets evaluated so far (interrupted trials excluded)."""
     import optuna
     TS = optuna.trial.TrialState
     return {t.user_attrs["modeset"] for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL))
-            if "modeset" in t.user_attrs and not interrupted(t)}
+            if "modeset" in t.user_attrs and not abandoned(t)}
 
 
 def _claims(study, trial, label) -> list:
@@ -50,7 +61,15 @@ def _claims(study, trial, label) -> list:
     TS = optuna.trial.TrialState
     return [t for t in study.get_trials(deepcopy=False, states=(TS.COMPLETE, TS.FAIL, TS.RUNNING))
             if t.number != trial.number and t.user_attrs.get("modeset") == label
-            and not interrupted(t) and "duplicate_of" not in t.user_attrs]
+            and not abandoned(t) and "duplicate_of" not in t.user_attrs]
+
+
+def _dead(trial) -> bool:
+    """Whether the process running `trial` is known to be gone (its ``owner``
+    on this host is dead): it will never finish, so it is not waited for."""
+    from modesel.study.search.storage import OWNER, owner_alive
+    owner = trial.user_attrs.get(OWNER)
+    return owner is not None and owner_alive(owner) is False
 
 
 def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
@@ -58,7 +77,7 @@ def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
 
     Returns the finished trial whose record `trial` takes, or None when
     `trial` simulates the set itself (also when the claimant ahead has not
-    finished within `wait_s` seconds, e.g. a worker that died)."""
+    finished within `wait_s` seconds, or its process is known to be dead)."""
     import optuna
     study = trial.study
     trial.set_user_attr("modeset", label)                                   # 1. choosing
@@ -74,8 +93,8 @@ def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
         finished = [t for t in rivals if t.state != optuna.trial.TrialState.RUNNING]
         if finished:
             return finished[0]
-        ahead = [t for t in rivals
-                 if "ticket" not in t.user_attrs or (int(t.user_attrs["ticket"]), t.number) < mine]
+        ahead = [t for t in rivals if not _dead(t) and
+                 ("ticket" not in t.user_attrs or (int(t.user_attrs["ticket"]), t.number) < mine)]
         if not ahead or time.monotonic() > deadline:
             return None
         time.sleep(pause)

@@ -4,15 +4,23 @@
 (`load_case`), opens the stored study (`storage`), queues interrupted trials
 again and, on a new study, the scene's default set, and optimises the
 `Objective` with the study's sampler. With n_jobs > 1 it starts that many
-loky processes (joblib), each optimising the same stored study. Callbacks:
+loky processes (joblib), each optimising the same stored study; a worker
+process ignores SIGINT (its parent stops it) and kills itself when its parent
+dies (`die_with_parent`), and every trial names its process (user attribute
+``owner``) so that a rerun queues again only the trials of dead processes
+(`storage.requeue_interrupted`). Callbacks:
 `Budget` (this process's share of new sets) and
 `modesel.study.metrics.StopWhenMet` (stop when the criterion is met, after
 ``keep_searching_trials`` more).
 """
 from __future__ import annotations
 
-import logging
 import math
+import os
+import signal
+import sys
+import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -22,22 +30,68 @@ import numpy as np
 from modesel.errors import ModeselError
 from modesel.study.metrics import StopWhenMet
 from modesel.study.search import engine as engines
-from modesel.study.search.claims import distinct_sets
+from modesel.study.search.claims import abandoned, distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
 from modesel.study.search.progress import Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
-from modesel.study.search.storage import (default_storage, open_storage, open_study, queue_baseline,
-                                          requeue_interrupted)
+from modesel.study.search.storage import (OWNER, check_against_results, default_storage, note_lost_trials,
+                                          open_storage, open_study, process_owner, queue_baseline,
+                                          quiet_optuna, requeue_interrupted)
 from modesel.study.timeseries import write_series
 
+_quiet_optuna = quiet_optuna
 
-def _quiet_optuna():
-    import optuna
-    optuna.logging.set_verbosity(logging.ERROR)
-    import warnings
-    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+
+def die_with_parent(parent: int, poll_s: float = 0.1) -> None:
+    """In a worker process: exit at once (SIGKILL to itself) when the process
+    `parent` is gone, even when it was killed with SIGKILL and had no chance
+    to stop its workers. Linux: also PR_SET_PDEATHSIG; everywhere: a daemon
+    thread polling the parent pid every `poll_s` seconds."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while True:
+            if os.getppid() != parent:
+                os.kill(os.getpid(), signal.SIGKILL)
+            time.sleep(poll_s)
+
+    if os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGKILL)
+    threading.Thread(target=watch, name="modesel-parent-watch", daemon=True).start()
+
+
+_WATCHED = []
+
+
+def worker_init(parent: int) -> None:
+    """Start of a worker process (loky initializer, run once per process
+    before any task): ignore SIGINT (the study process stops its workers)
+    and die with the study process `parent`."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if parent not in _WATCHED:
+        _WATCHED.append(parent)
+        die_with_parent(parent)
+
+
+class Owned:
+    """The objective, with the trial's process recorded first (user attribute
+    ``owner``, `storage.process_owner`)."""
+
+    def __init__(self, objective: Objective):
+        import uuid
+        self.objective = objective
+        self.owner = process_owner(run=uuid.uuid4().hex[:12])
+
+    def __call__(self, trial):
+        trial.set_user_attr(OWNER, self.owner)
+        return self.objective(trial)
 
 
 class Budget:
@@ -84,23 +138,53 @@ class Budget:
 
 def optimize_worker(objective: Objective, storage_url, study, sampler_name: str,
                     seed: int, n_trials: int, timeout: float | None, callbacks: list,
-                    progress=None) -> str | None:
-    """Evaluate `n_trials` new sets of the stored study in this process. Returns
-    None, or the one-line text of a ModeselError (errors cross process
-    boundaries as text)."""
+                    progress=None, parent: int | None = None) -> tuple:
+    """Evaluate `n_trials` new sets of the stored study in this process.
+    Returns (error, owner): None or the one-line text of a ModeselError
+    (errors cross process boundaries as text), and the ``owner`` this
+    process gave its trials. `parent`: the pid of the study process when
+    this runs in a worker process (it then ignores SIGINT and dies with its
+    parent)."""
     _quiet_optuna()
+    if parent is not None:
+        worker_init(parent)
+    owned = Owned(objective)
     try:
         sampler = make_sampler(sampler_name, seed, n_trials)
         opt = open_study(study, storage_url, sampler, create=False)
         budget = Budget(objective, n_trials, seed)
         if budget.exhausted(opt):
-            return None
+            return None, owned.owner
         objective.warm_up()
         cbs = [budget] + list(callbacks) + ([progress] if progress else [])
-        opt.optimize(objective, n_trials=None, timeout=timeout, callbacks=cbs, catch=(ModeselError,))
+        opt.optimize(owned, n_trials=None, timeout=timeout, callbacks=cbs, catch=(ModeselError,))
     except ModeselError as exc:
-        return str(exc)
-    return None
+        return str(exc), owned.owner
+    return None, owned.owner
+
+
+def tally(trials, owners) -> tuple:
+    """(sets evaluated, repeats) among `trials` run by the processes `owners`:
+    a set is evaluated by the trial that simulated it (user attribute
+    ``modeset_json``, not interrupted); a repeat took an earlier record."""
+    mine = [t for t in trials if t.user_attrs.get(OWNER) in owners]
+    repeats = sum(1 for t in mine if "duplicate_of" in t.user_attrs)
+    evaluated = sum(1 for t in mine if "modeset_json" in t.user_attrs and "duplicate_of" not in t.user_attrs
+                    and t.state.is_finished() and not abandoned(t))
+    return evaluated, repeats
+
+
+def check_time_grids(study, scenes: dict) -> None:
+    """Each [[scene]]'s tmax/dt (or the scene file's) within the simulation's
+    memory budget and dt <= tmax, before any trial (one-line error naming the
+    study file and scene[i].tmax/dt)."""
+    from modesel.simulation.scene import check_time_grid
+    for i, spec in enumerate(study.scenes):
+        scene = scenes.get(spec.name)
+        tmax = spec.tmax if spec.tmax is not None else getattr(scene, "tmax", None)
+        dt = spec.dt if spec.dt is not None else getattr(scene, "dt", None)
+        if isinstance(tmax, (int, float)) and isinstance(dt, (int, float)):
+            check_time_grid(float(tmax), float(dt), file=str(study.path), where=f"scene[{i}].")
 
 
 @dataclass
@@ -140,22 +224,26 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
         if out_dir is None:
             raise ModeselError("no storage: give an output folder or --storage URL")
         storage = default_storage(out_dir)
-    # the output folder's own journal belongs to this run (and its child
-    # processes): a RUNNING trial found there was cut short by an interruption
+    # the output folder's own journal: trials.csv beside it tells whether records were lost
     private = out_dir is not None and isinstance(storage, str) and "://" not in storage \
         and Path(storage).resolve() == Path(default_storage(out_dir))
     if cache_dir is None and out_dir is not None:
         cache_dir = Path(out_dir) / "reference"
 
     scenes = load_scenes(study, engine)
+    check_time_grids(study, scenes)
     references = prepare_references(study, scenes, engine, cache_dir, log)
     if out_dir is not None:
         write_series(out_dir, "reference", {name: (r.time, r.channels) for name, r in references.items()})
 
-    store = open_storage(storage)
+    if private:
+        check_against_results(storage, out_dir)
+    store = open_storage(storage, log=log)
     opt = open_study(study, storage, create=True, storage=store)
+    if private:
+        note_lost_trials(opt, out_dir, log)
     n_before = len(opt.get_trials(deepcopy=False))
-    requeued = requeue_interrupted(opt, store, fail_running=private)
+    requeued = requeue_interrupted(opt, store, private=private)
     baseline = queue_baseline(opt, study, scenes)
     stop = StopWhenMet(study.criterion(), study.budget.keep_searching_trials) \
         if study.budget.stop_when_met else None
@@ -176,39 +264,42 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
         if n_jobs == 1:
             def tick(s, t):
                 bar.set(*counts(s, since, criterion))
-            error = optimize_worker(objective, store, study, study.search.sampler,
-                                    worker_seed(seed, n_before, 0, salt), n_trials, timeout, callbacks,
-                                    tick if bar.bar is not None else None)
-            errors = [error] if error else []
+            results = [optimize_worker(objective, store, study, study.search.sampler,
+                                       worker_seed(seed, n_before, 0, salt), n_trials, timeout, callbacks,
+                                       tick if bar.bar is not None else None)]
         else:
             seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
-            errors = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks,
-                                   lambda: bar.set(*counts(opt, since, criterion)))
+            results = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks,
+                                    lambda: bar.set(*counts(opt, since, criterion)))
     finally:
         bar.close()
+    errors = [error for error, _ in results if error]
     if errors:
         raise ModeselError(errors[0])   # already "file: field: message" text from the worker
-    new = opt.get_trials(deepcopy=False)[n_before:]
-    repeats = sum(1 for t in new if "duplicate_of" in t.user_attrs)
-    return SearchOutcome(opt, storage, len(new) - repeats, repeats, requeued, False, references, baseline)
+    new, repeats = tally(opt.get_trials(deepcopy=False), {owner for _, owner in results})
+    return SearchOutcome(opt, storage, new, repeats, requeued, False, references, baseline)
 
 
 def _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, poll):
     from concurrent.futures import FIRST_COMPLETED, wait
 
     from joblib.externals.loky import get_reusable_executor
-    executor = get_reusable_executor(max_workers=len(shares), reuse=False)
+    parent = os.getpid()
+    executor = get_reusable_executor(max_workers=len(shares), reuse=False, initializer=worker_init,
+                                     initargs=(parent,))
     futures = [executor.submit(optimize_worker, objective, storage, study, study.search.sampler,
-                               worker_seed_i, share, timeout, callbacks)
+                               worker_seed_i, share, timeout, callbacks, None, parent)
                for worker_seed_i, share in zip(seeds, shares)]
     try:
         pending = set(futures)
         while pending:
             _, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
             poll()
-    except KeyboardInterrupt:
+        results = [f.result() for f in futures]
+    except BaseException:
         # stop the workers and wait until they are gone, so that no trial
         # finishes after the results of the finished trials have been written
         executor.shutdown(wait=True, kill_workers=True)
         raise
-    return [f.result() for f in futures if f.result()]
+    executor.shutdown(wait=True)        # no idle worker outlives the search
+    return results

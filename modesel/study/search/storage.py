@@ -6,10 +6,31 @@ finished trials, and trials an interruption cut short are queued again); or
 any SQLAlchemy URL (``sqlite:///x.db``, ``postgresql://user@host/db``) so
 that several machines run `modesel worker` on one study. Only Optuna's
 public API is used: a storage's methods and `Study.tell`.
+
+Faults (issue 13):
+
+- the journal is checked before Optuna reads it (`check_journal`): a torn
+  or damaged tail (a crash mid-write) is cut back to the last complete
+  record after a copy of the damaged file is kept (one line says what was
+  dropped); damage followed by valid records is a one-line error naming the
+  byte offset; an emptied journal beside a trials.csv is refused;
+- the journal lock is an `flock` (`FlockLock`) that dies with its process, so
+  a killed run leaves no lock file that delays the next one;
+- each running trial names its process (user attribute ``owner``:
+  host:pid:start time:run); a rerun marks the RUNNING trials of dead processes
+  interrupted and queues their sets again once, and leaves the trials of live
+  processes alone. On RDB storages a heartbeat does the same for other
+  machines (`RetryFailedTrialCallback`, one retry).
 """
 from __future__ import annotations
 
+import json
+import os
 import re
+import shutil
+import socket
+import sys
+import time
 from pathlib import Path
 
 from modesel.errors import ModeselError
@@ -28,19 +49,66 @@ def default_storage(out_dir) -> str:
     return str(Path(out_dir).resolve() / JOURNAL_NAME)
 
 
-def open_storage(url):
+def _say(msg: str) -> None:
+    print(f"modesel: {msg}", file=sys.stderr)
+
+
+def quiet_optuna() -> None:
+    """Optuna's log and experimental-feature warnings off (modesel says what matters in one line)."""
+    import logging
+    import warnings
+
+    import optuna
+    optuna.logging.set_verbosity(logging.ERROR)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+
+
+def sqlalchemy_url(url: str) -> str:
+    """`url` with a driver SQLAlchemy can import: a plain ``postgresql://``
+    names no driver and SQLAlchemy picks its default (psycopg 3 in
+    SQLAlchemy 2.1, psycopg2 before); when that one is not installed and the
+    other is, the URL names the installed one (``postgresql+psycopg2://``)."""
+    import importlib.util
+    scheme, sep, rest = url.partition("://")
+    if scheme != "postgresql":
+        return url
+    try:
+        from sqlalchemy.engine import make_url
+        preferred = make_url(url).get_dialect().driver
+    except Exception:   # noqa: BLE001 (SQLAlchemy too old or odd URL: let it report)
+        return url
+    drivers = [preferred] + [d for d in ("psycopg2", "psycopg") if d != preferred]
+    for driver in drivers:
+        if importlib.util.find_spec(driver) is not None:
+            return url if driver == preferred else f"postgresql+{driver}{sep}{rest}"
+    return url
+
+
+def _retry_once() -> dict:
+    """The RDBStorage argument that queues a heartbeat-stale trial again once
+    (Optuna >= 4.9 renamed the callback and its argument)."""
+    import optuna
+    if hasattr(optuna.storages, "RetryHeartbeatStaleTrialCallback"):
+        return {"heartbeat_stale_trial_callback": optuna.storages.RetryHeartbeatStaleTrialCallback(max_retry=1)}
+    return {"failed_trial_callback": optuna.storages.RetryFailedTrialCallback(max_retry=1)}
+
+
+def open_storage(url, *, log=None):
     """An Optuna storage for `url`: a SQLAlchemy URL ('scheme://...') gives an
-    RDB storage (with heartbeats so trials of a dead worker are failed), any
-    other string is a journal file path; an open storage is returned as is."""
+    RDB storage (with heartbeats, so the trials of a dead worker are failed
+    and queued again once), any other string is a journal file path (checked
+    and repaired by `check_journal`; `log` gets its one-line notes); an open
+    storage is returned as is."""
     import optuna
     if isinstance(url, optuna.storages.BaseStorage):   # already open
         return url
+    quiet_optuna()
     if "://" in url:
-        import time
         import sqlalchemy.exc
         for attempt in range(5):
             try:
-                return optuna.storages.RDBStorage(url, heartbeat_interval=60, grace_period=180)
+                return optuna.storages.RDBStorage(sqlalchemy_url(url), heartbeat_interval=20,
+                                                  grace_period=60, **_retry_once())
             except sqlalchemy.exc.IntegrityError:
                 # two workers creating the schema of an empty database at once:
                 # one wins, the other retries and finds the tables made
@@ -54,9 +122,236 @@ def open_storage(url):
         raise ModeselError("storage folder does not exist", file=url)
     try:
         from optuna.storages.journal import JournalFileBackend
-        return optuna.storages.JournalStorage(JournalFileBackend(str(path)))
+        lock = FlockLock(str(path))
+        legacy = Path(str(path) + ".lock")      # Optuna's own lock file, left by a killed process
+        if legacy.is_symlink() or legacy.is_file():
+            legacy.unlink(missing_ok=True)      # modesel locks with flock: nobody holds this one
+        with lock:
+            check_journal(path, log=log or _say)
+        return optuna.storages.JournalStorage(JournalFileBackend(str(path), lock_obj=lock))
     except OSError as exc:
         raise ModeselError(f"cannot open storage: {exc.strerror}", file=url) from None
+
+
+# --------------------------------------------------------------------------- journal integrity
+
+class FlockLock:
+    """The journal's writer lock for Optuna's `JournalFileBackend(lock_obj=)`:
+    an exclusive `flock` on the journal file itself. The kernel releases it
+    when its process dies (even by kill -9), so no stale lock file is left to
+    delay the next run. One open file per acquisition, so threads of one
+    process exclude each other too."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self._fd = None
+
+    def acquire(self) -> bool:
+        import fcntl
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_APPEND, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except BaseException:
+            os.close(fd)
+            raise
+        self._fd = fd
+        return True
+
+    def release(self) -> None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)                      # closing the file releases the flock
+
+    def __enter__(self):
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def _is_record(line: bytes) -> bool:
+    try:
+        data = json.loads(line)
+    except (ValueError, UnicodeDecodeError):
+        return False
+    return isinstance(data, dict) and isinstance(data.get("op_code"), int)
+
+
+def scan_journal(data: bytes) -> tuple:
+    """(records, end, bad_at, later) of journal bytes: the number of complete
+    records before the first damaged one, the byte where they end, the byte
+    offset of the first damaged line (None when all are sound; a last line
+    without its newline counts as damaged) and the number of sound records
+    after it."""
+    records, end, bad_at, later, pos = 0, 0, None, 0, 0
+    while pos < len(data):
+        nl = data.find(b"\n", pos)
+        stop = len(data) if nl < 0 else nl + 1
+        sound = nl >= 0 and _is_record(data[pos:stop])
+        if bad_at is None:
+            if sound:
+                records, end = records + 1, stop
+            else:
+                bad_at = pos
+        elif sound:
+            later += 1
+        pos = stop
+    return records, end, bad_at, later
+
+
+def check_journal(path, *, log=_say) -> int:
+    """Check the journal file `path` before Optuna reads it (call with the
+    journal lock held, so no write is in progress). Damage with sound records
+    after it is a ModeselError naming the byte offset. A damaged tail (a
+    record cut by a crash, garbage after the last record) is cut off after
+    the file is copied to ``<name>.damaged-<time>``, and `log` gets one line
+    saying what was dropped. Returns the number of records kept."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return 0
+    records, end, bad_at, later = scan_journal(data)
+    if bad_at is None:
+        return records
+    if later:
+        raise ModeselError(
+            f"damaged record at byte {bad_at} of {len(data)} ({later} sound records follow it): the "
+            f"journal is corrupted in the middle and cannot be resumed; restore it from a backup "
+            f"or use another output folder", file=str(path))
+    backup = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
+    n = 1
+    while backup.exists():
+        backup = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}-{n}")
+        n += 1
+    shutil.copyfile(path, backup)
+    dropped = data[end:]
+    pieces = dropped.count(b"\n") + (0 if dropped.endswith(b"\n") else 1)
+    with open(path, "r+b") as fh:
+        fh.truncate(end)
+        fh.flush()
+        os.fsync(fh.fileno())
+    log(f"{path}: damaged tail: dropped {len(dropped)} bytes ({pieces} incomplete or damaged "
+        f"record{'s' if pieces != 1 else ''}) after record {records} at byte {end}; resuming from "
+        f"the last complete record; the damaged file is kept as {backup.name}")
+    return records
+
+
+def results_rows(out_dir) -> dict:
+    """{trial number: status} of the trials.csv in `out_dir` (empty when there is none)."""
+    import csv
+    path = Path(out_dir) / "trials.csv"
+    try:
+        with open(path, newline="") as fh:
+            return {int(row["trial"]): row.get("status", "") for row in csv.DictReader(fh)
+                    if str(row.get("trial", "")).strip().isdigit()}
+    except (OSError, KeyError, ValueError, csv.Error):
+        return {}
+
+
+def check_against_results(path, out_dir) -> None:
+    """Refuse a journal that is empty (or holds no study) while the
+    trials.csv written from it in `out_dir` lists trials: starting a new
+    study there would silently drop them."""
+    rows = results_rows(out_dir)
+    if not rows:
+        return
+    try:
+        empty = not any(_is_record(line) for line in Path(path).read_bytes().splitlines(keepends=True)[:1])
+    except FileNotFoundError:
+        empty = True
+    if empty:
+        raise ModeselError(
+            f"the journal is missing or empty but {Path(out_dir) / 'trials.csv'} lists {len(rows)} trials "
+            f"of it: the storage was lost; restore it, or remove trials.csv (or use another --out) to "
+            f"start a new study", file=str(path))
+
+
+def note_lost_trials(opt, out_dir, log) -> int:
+    """One line when trials that trials.csv lists as COMPLETE are no longer
+    complete in the storage (records lost, e.g. a journal cut at a record
+    boundary): their sets will be evaluated again. Returns how many."""
+    import optuna
+    rows = results_rows(out_dir)
+    complete = {t.number for t in opt.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))}
+    lost = sorted(n for n, status in rows.items() if status == "COMPLETE" and n not in complete)
+    if lost:
+        log(f"{Path(out_dir) / 'trials.csv'} lists {len(lost)} complete trials that the storage no "
+            f"longer holds (records lost, first: trial {lost[0]}); their sets are evaluated again "
+            f"when proposed")
+    return len(lost)
+
+
+# --------------------------------------------------------------------------- trial owners
+
+OWNER = "owner"
+STALE_UNOWNED_S = 30.0     # a trial names its owner within milliseconds of its creation
+
+
+def _stat(pid: int) -> tuple:
+    """(state letter, start time in clock ticks since boot) of process `pid`
+    from /proc, or (None, None) when unknown."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None, None
+    return fields[0], fields[19]
+
+
+def _start_time(pid: int) -> str | None:
+    return _stat(pid)[1]
+
+
+def process_owner(pid: int | None = None, run: str = "") -> str:
+    """'host:pid:start:run' naming this process (or `pid`) uniquely, even after
+    pid reuse; `run` tells apart several searches made by one process."""
+    pid = os.getpid() if pid is None else pid
+    return f"{socket.gethostname()}:{pid}:{_start_time(pid) or '?'}:{run}"
+
+
+def owner_alive(owner: str) -> bool | None:
+    """Whether the process named by `owner` runs: True/False on this host,
+    None (unknown) for another host."""
+    try:
+        host, pid, start, _ = str(owner).rsplit(":", 3)
+        pid = int(pid)
+    except ValueError:
+        return None
+    if host != socket.gethostname():
+        return None
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    state, now = _stat(pid)
+    if state in ("Z", "X"):                 # killed, not yet reaped by its parent
+        return False
+    return now is None or start == "?" or now == start
+
+
+def dead_running_trials(opt, *, private: bool = False) -> list:
+    """RUNNING trials whose process is gone: its owner (on this host) is dead,
+    or it never named one (a process killed between creating the trial and
+    naming itself, or a modesel before owners) and either the storage is
+    `private` (the output folder's own journal) or it started more than
+    STALE_UNOWNED_S ago."""
+    import datetime
+
+    import optuna
+    dead = []
+    now = datetime.datetime.now()
+    for t in opt.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
+        owner = t.user_attrs.get(OWNER)
+        if owner is not None:
+            if owner_alive(owner) is False:
+                dead.append(t)
+        elif private or t.datetime_start is None or \
+                (now - t.datetime_start).total_seconds() > STALE_UNOWNED_S:
+            dead.append(t)
+    return dead
 
 
 def open_study(study, storage_url, sampler=None, *, create: bool = True, storage=None):
@@ -105,18 +400,21 @@ def fail_interrupted(opt, storage, number: int) -> None:
     opt.tell(number, state=optuna.trial.TrialState.FAIL)
 
 
-def requeue_interrupted(opt, storage, *, fail_running: bool) -> int:
-    """Queue again the sets whose trials an interruption cut short. With
-    `fail_running` (private storage: nothing else can be running) RUNNING
-    trials are first marked FAIL 'interrupted'. Each interrupted trial is
+def requeue_interrupted(opt, storage, *, private: bool = False) -> int:
+    """Queue again the sets whose trials an interruption cut short. RUNNING
+    trials whose process is dead (`dead_running_trials`; `private`: the
+    output folder's own journal) are first marked
+    FAIL 'interrupted'; those of live processes are left to them. Each interrupted trial is
     considered once (study user attribute ``requeued``); its set is not
     queued when it has been evaluated since or is queued already (the copy
     would only repeat it). Returns how many were queued."""
     import optuna
     TS = optuna.trial.TrialState
-    if fail_running:
-        for t in opt.get_trials(deepcopy=False, states=(TS.RUNNING,)):
+    for t in dead_running_trials(opt, private=private):
+        try:
             fail_interrupted(opt, storage, t.number)
+        except (optuna.exceptions.UpdateFinishedTrialError, RuntimeError, ValueError):
+            pass                # finished meanwhile (its process was alive after all)
     before = set(opt.user_attrs.get("requeued", []))
     retried, evaluated, seen = set(before), distinct_sets(opt), set()
     queued = 0
