@@ -2,7 +2,7 @@
 
 What the case's modules become:
 
-- ElastoDyn (`turbine.elastodyn.read_elastodyn` and `simulation.scene.scene_from_elastodyn`):
+- ElastoDyn (`turbine.elastodyn.read_elastodyn` and `scene_from_elastodyn` below):
   DOF flags, initial conditions, geometry, masses, modal damping,
   drivetrain; the deck's polynomial mode shapes are the default mode set.
 - InflowWind (CompInflow = 1, `turbine.inflowwind.read_inflowwind`) -> the `wind`
@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from modesel.modeset import FieldModes, ModeSet
+from modesel.simulation.scene import INITIAL_KEYS, Scene, use_deck_reader
 from modesel.turbine.openfast_inputs import InputFile
 
 
@@ -73,7 +75,6 @@ def _check_elastodyn(ed: InputFile):
 
 def scene_from_fst(path):
     """The `Scene` of an OpenFAST case (module doc)."""
-    from modesel.simulation.scene import scene_from_elastodyn
     from modesel.model.effects import validate as validate_effects
     path = Path(path)
     f = InputFile(path, "OpenFAST main")
@@ -134,3 +135,53 @@ def _servodyn(f: InputFile, tmax: float, yaw_dof: bool) -> dict:
     if servo_path is None:
         raise f.error("CompServo = 1 needs a ServoDyn file", "ServoFile")
     return read_servodyn(servo_path, tmax, yaw_dof=yaw_dof)
+
+
+def scene_from_elastodyn(path: Path) -> Scene:
+    """ElastoDyn main file (or .fst) as a scene: DOF flags, initial conditions,
+    masses and geometry as OpenFAST uses them; the deck's polynomials are the
+    default mode set. TMax/DT_Out come from the .fst when given (else 10 s /
+    0.01 s). A rotor without GenDOF spins at the constant RotSpeed. The
+    beams are integrated on the deck's analysis nodes as ElastoDyn does
+    (effect flag `elastodyn_nodes`, model.template.build_turbine)."""
+    from modesel.turbine.elastodyn import read_elastodyn
+    turbine = read_elastodyn(path)
+    flags = turbine.dofs
+    fields = {}
+    if flags.get("TwFADOF1"):
+        fields["tower_fa"] = FieldModes("elastodyn", 2 if flags.get("TwFADOF2") else 1)
+    if flags.get("TwSSDOF1"):
+        fields["tower_ss"] = FieldModes("elastodyn", 2 if flags.get("TwSSDOF2") else 1)
+    if flags.get("FlapDOF1"):
+        fields["blade_flap"] = FieldModes("elastodyn", 2 if flags.get("FlapDOF2") else 1)
+    if flags.get("EdgeDOF"):
+        fields["blade_edge"] = FieldModes("elastodyn", 1)
+    free, speed, fixed = [], {}, {}
+    if flags.get("GenDOF"):
+        free.append("GeAz")
+    else:
+        speed["GeAz"] = turbine.initial.get("RotSpeed", 0.0)
+    if flags.get("DrTrDOF"):
+        free.append("DrTr")
+    if flags.get("YawDOF"):
+        free.append("Yaw")
+    for flag, dof in (("PtfmSgDOF", "PtfmSurge"), ("PtfmPDOF", "PtfmPitch")):
+        if flags.get(flag):
+            free.append(dof)
+    initial = {k: v for k, v in turbine.initial.items() if k in INITIAL_KEYS}
+    for dof, key in (("Yaw", "NacYaw"), ("PtfmSurge", "PtfmSurge"), ("PtfmPitch", "PtfmPitch")):
+        if dof not in free and initial.get(key):
+            fixed[dof] = initial[key]
+    sim = getattr(turbine, "simulation", {}) or {}
+    return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
+                 ModeSet(fields), tuple(free), fixed, speed, initial,
+                 {"gravity": True, "geometric_stiffening": True, "damping": True, "elastodyn_nodes": True},
+                 {}, str(path))
+
+
+def load_openfast_scene(path) -> Scene:
+    """A scene from an OpenFAST main file (.fst) or an ElastoDyn main file."""
+    return scene_from_fst(path) if is_fst(path) else scene_from_elastodyn(path)
+
+
+use_deck_reader(load_openfast_scene)

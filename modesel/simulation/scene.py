@@ -155,6 +155,17 @@ def _initial_si(name, value):
     return value
 
 
+#: reader of OpenFAST input decks (.fst, ElastoDyn .dat) as scenes,
+#: registered by `simulation.fst` (which builds on this module, not the reverse)
+_DECK_READER = None
+
+
+def use_deck_reader(reader) -> None:
+    """Register `reader(path) -> Scene` for OpenFAST decks (`simulation.fst`)."""
+    global _DECK_READER
+    _DECK_READER = reader
+
+
 def load_scene(path) -> Scene:
     """Scene from a TOML file or an ElastoDyn/OpenFAST main file."""
     path = Path(path)
@@ -163,10 +174,7 @@ def load_scene(path) -> Scene:
     if not path.is_file():
         raise ModeselError("not a file (give a TOML scene, an ElastoDyn .dat or an .fst)", file=str(path))
     if path.suffix.lower() in (".dat", ".fst"):
-        from modesel.simulation.fst import is_fst, scene_from_fst
-        if is_fst(path):
-            return scene_from_fst(path)
-        return scene_from_elastodyn(path)
+        return _DECK_READER(path)     # set when modesel.simulation (its package) was imported
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
@@ -271,48 +279,6 @@ def _solver(table: dict, file) -> dict:
         raise ModeselError(f"must be true or false, got {out['stability_check']!r}", file=file,
                            field="solver.stability_check")
     return out
-
-
-def scene_from_elastodyn(path: Path) -> Scene:
-    """ElastoDyn main file (or .fst) as a scene: DOF flags, initial conditions,
-    masses and geometry as OpenFAST uses them; the deck's polynomials are the
-    default mode set. TMax/DT_Out come from the .fst when given (else 10 s /
-    0.01 s). A rotor without GenDOF spins at the constant RotSpeed. The
-    beams are integrated on the deck's analysis nodes as ElastoDyn does
-    (effect flag `elastodyn_nodes`, model.template.build_turbine)."""
-    from modesel.turbine.elastodyn import read_elastodyn
-    turbine = read_elastodyn(path)
-    flags = turbine.dofs
-    fields = {}
-    if flags.get("TwFADOF1"):
-        fields["tower_fa"] = FieldModes("elastodyn", 2 if flags.get("TwFADOF2") else 1)
-    if flags.get("TwSSDOF1"):
-        fields["tower_ss"] = FieldModes("elastodyn", 2 if flags.get("TwSSDOF2") else 1)
-    if flags.get("FlapDOF1"):
-        fields["blade_flap"] = FieldModes("elastodyn", 2 if flags.get("FlapDOF2") else 1)
-    if flags.get("EdgeDOF"):
-        fields["blade_edge"] = FieldModes("elastodyn", 1)
-    free, speed, fixed = [], {}, {}
-    if flags.get("GenDOF"):
-        free.append("GeAz")
-    else:
-        speed["GeAz"] = turbine.initial.get("RotSpeed", 0.0)
-    if flags.get("DrTrDOF"):
-        free.append("DrTr")
-    if flags.get("YawDOF"):
-        free.append("Yaw")
-    for flag, dof in (("PtfmSgDOF", "PtfmSurge"), ("PtfmPDOF", "PtfmPitch")):
-        if flags.get(flag):
-            free.append(dof)
-    initial = {k: v for k, v in turbine.initial.items() if k in INITIAL_KEYS}
-    for dof, key in (("Yaw", "NacYaw"), ("PtfmSurge", "PtfmSurge"), ("PtfmPitch", "PtfmPitch")):
-        if dof not in free and initial.get(key):
-            fixed[dof] = initial[key]
-    sim = getattr(turbine, "simulation", {}) or {}
-    return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
-                 ModeSet(fields), tuple(free), fixed, speed, initial,
-                 {"gravity": True, "geometric_stiffening": True, "damping": True, "elastodyn_nodes": True},
-                 {}, str(path))
 
 
 def apply_overrides(turbine, over: dict, file=None):

@@ -192,7 +192,7 @@ def kill_cycle(tmp_path: Path, kills: int, seed: int, uninterrupted: dict) -> No
     final = run_to_the_end(study, out)
     assert all(final[k] == v for k, v in kept.items())
     assert final == uninterrupted                   # the same sets, the same values
-    rows = pd.read_csv(out / "trials.csv")
+    rows = pd.read_csv(out / "trials.csv", header=[0, 1]).droplevel(1, axis=1)
     assert not rows["modeset"].isna().any()         # no row without a mode set
     print(f"kills (seed {seed}; instant: complete sets after the kill): {' '.join(report)}")
 
@@ -255,7 +255,7 @@ def test_sigint_to_the_process_group_leaves_no_row_without_a_mode_set(tmp_path):
     code, _, err = finish(proc)
     assert code == 130, err
     assert survivors(proc.pid) == []
-    rows = pd.read_csv(out / "trials.csv")
+    rows = pd.read_csv(out / "trials.csv", header=[0, 1]).droplevel(1, axis=1)
     failed = rows[rows["status"] == "FAIL"]
     assert not rows["modeset"].isna().any() and not failed["reason"].isna().any(), rows
     start = time.monotonic()                          # no stale lock delays the next run

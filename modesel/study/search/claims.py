@@ -67,7 +67,7 @@ def _claims(study, trial, label) -> list:
 def _dead(trial) -> bool:
     """Whether the process running `trial` is known to be gone (its ``owner``
     on this host is dead): it will never finish, so it is not waited for."""
-    from modesel.study.search.storage import OWNER, owner_alive
+    from modesel.study.search.owners import OWNER, owner_alive
     owner = trial.user_attrs.get(OWNER)
     return owner is not None and owner_alive(owner) is False
 

@@ -36,9 +36,9 @@ from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
 from modesel.study.search.progress import Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
-from modesel.study.search.storage import (OWNER, check_against_results, default_storage, note_lost_trials,
-                                          open_storage, open_study, process_owner, queue_baseline,
-                                          quiet_optuna, requeue_interrupted)
+from modesel.study.search.owners import OWNER, process_owner
+from modesel.study.search.storage import (check_against_results, default_storage, note_lost_trials, open_storage,
+                                          open_study, queue_baseline, quiet_optuna, requeue_interrupted)
 from modesel.study.timeseries import write_series
 
 _quiet_optuna = quiet_optuna
@@ -82,7 +82,7 @@ def worker_init(parent: int) -> None:
 
 class Owned:
     """The objective, with the trial's process recorded first (user attribute
-    ``owner``, `storage.process_owner`)."""
+    ``owner``, `owners.process_owner`)."""
 
     def __init__(self, objective: Objective):
         import uuid
