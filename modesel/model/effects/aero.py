@@ -8,22 +8,27 @@ Pitt-Peters skew; the work of the loads, eq. 52, enters as node forces).
 
 Needs [effects.wind]. At every right-hand side:
 
-1. Stations: the AeroDyn blade nodes (BlSpn), as points of each flexible
-   blade with the blade's own mode shapes evaluated there
+1. Stations: the AeroDyn blade nodes, at the aerodynamic centres
+   (BlCrvAC, BlSwpAC, BlSpn) of the pitched blade frame, as points of each
+   flexible blade with the blade's own mode shapes evaluated there
    (`TurbineModel.station_shapes`); their inertial positions and
    velocities include all structural motion (tower, nacelle, rotor speed,
    blade vibration) through the engine's kinematics (`kinematics.py`).
-2. Inflow: v_rel = wind(z, t) - v_station. With x_s the shaft axis (hub
-   frame x) and z_b the blade's (coned, undeflected) axis, the element
-   normal is e_n = unit(x_s - (x_s . z_b) z_b) (downwind, normal to the
-   coned blade) and the direction of rotation e_t = e_n x z_b; then
-   V_n = v_rel . e_n and V_t = -v_rel . e_t (rotor speed times radius plus
-   the blade's own in-plane motion). The element radius is the undeflected
-   r = (HubRad + BlSpn) cos(precone), as in `aero.steady_rotor`.
-3. Skew (Pitt-Peters): chi_0 is the angle between x_s and the hub-height
-   wind relative to the hub (wind at the apex minus the hub velocity), so a
-   shaft tilt, a yaw error or nacelle motion skew the wake; psi is each
-   blade's azimuth from the in-plane direction of that relative wind.
+2. Inflow (AeroDyn's legacy NoSweepPitchTwist projection, BEM_Mod 1):
+   v_rel = wind(station, t) - v_station. With x_s the shaft axis and z_b
+   the blade's (coned, pitched) axis, the coned normal is
+   e_c = unit(x_s - (x_s . z_b) z_b) and the direction of rotation
+   e_t = e_c x z_b. The section's out-of-plane angle theta (sin theta =
+   t . e_c, t the deflected unit tangent from the station slopes,
+   `TurbineModel.station_slopes`, and BlCrvAng) turns the annulus normal:
+   e_n = cos(theta) e_c - sin(theta) z_b. V_n = v_rel . e_n,
+   V_t = -v_rel . e_t. The local radius r is the station's distance from
+   the shaft axis (deflected); the Pitt/Peters radius ratio is r over the
+   blade's largest r; the tip/hub loss constants use AeroDyn's zLocal.
+3. Skew (Pitt-Peters): chi_0 is the angle between x_s and the
+   disk-averaged relative wind (wind minus station velocity over all
+   stations, AeroDyn's V_diskAvg); psi is each blade's azimuth from the
+   in-plane direction of that wind.
 4. BEM for all blades and stations at once -> f_n, f_t [N/m]:
    `BemSolver.solve_into` on buffers preallocated once (`StationBem`;
    `solve` allocates its result at every call, which costs as much as the
@@ -33,16 +38,15 @@ Needs [effects.wind]. At every right-hand side:
    multiplied by the node quadrature weights w_k [m]: node force
    F_k = f(s_k) w_k, applied at the deflected node. The sectional pitching
    moment is not applied (the blades have no torsion DOF).
-   On ElastoDyn's discrete blade nodes (`elastodyn_nodes`, a handful of
-   midpoints that a midpoint rule on f would under-resolve near the tip)
-   the transfer follows OpenFAST's mesh mapping instead: the AeroDyn line
-   loads (linear between stations) are lumped to point loads at the
-   stations, F_a = int N_a f ds (hat functions N_a), and each is carried to
-   the structural nodes by the transpose of the linear interpolation (and
-   extrapolation beyond the first and last node) along the span, which
-   keeps the total force and its moment about the root and does the same
-   virtual work as F_a at r_a on the piecewise-linear blade line
-   (`_lumped_transfer`).
+   On ElastoDyn's discrete blade nodes (`elastodyn_nodes`) the node forces
+   are the lumped line loads (hat functions) carried by the transpose of
+   the linear interpolation along the span (`_lumped_transfer`: total force
+   and moment kept, so the rigid-body loads are exact), and the blade's
+   elastic coordinates get the generalised forces of OpenFAST's mapping
+   instead (`_elastodyn_correction`, `elastic_correction`): each lumped
+   point load moved to the nearest ElastoDyn node with the moment of its
+   offset and the element end moments of ModMesh's lumping, which
+   ElastoDyn applies through the node's shape and slope.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
 of node forces along x_s, RtAeroMxh [N m] = sum of their moments about x_s
