@@ -314,7 +314,7 @@ def compiled_loads(rng):
     """The whole right-hand side with every load effect: Built.rhs (loads packed into the
     kernel, model/effects/compiled.py) / the effects' Python __call__ + KaneEquations
     (numpy reference and kernel): wind (steady with shear; time series; an InflowWind
-    table), BEM aero, tower drag, generator laws (NREL 5-MW, constant, ServoDyn
+    table), BEM aero (ElastoDyn blade nodes too), tower drag, generator laws (NREL 5-MW, constant, ServoDyn
     simple variable-speed and induction with their switches)."""
     out = rhs_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
                                   "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
@@ -325,6 +325,9 @@ def compiled_loads(rng):
                                   modes={"tower_fa": {"family": "elastodyn", "count": 1},
                                          "blade_flap": {"family": "elastodyn", "count": 1}}),
                      rng, "series wind, skew, rigid edge")
+    out += rhs_pairs(turbine_with({"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
+                                   "generator": {"mode": "variable_speed"}}),
+                     rng, "ElastoDyn blade nodes (aero's generalised-force correction)")
     out += rhs_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
                                                  "rated_torque": 43093.55, "region2_k": 0.0255764,
                                                  "slip_percent": 10.0, "on_speed_rpm": 900.0}}),

@@ -186,8 +186,8 @@ class BladeAerodynamics(Effect):
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
 
     def compile_loads(self, built, packer, node_start):
-        """Pack this effect for the compiled loop (`effects.compiled`): the
-        same arrays `__call__` uses, and `solve_into`'s arguments."""
+        """Pack this effect for the compiled loop (`effects.compiled._aero`):
+        the same arrays `__call__` uses, and `solve_into`'s arguments."""
         from modesel.model.effects.packing import AERO, point_set_ints
         B, M = self.r.shape
         N = self.forces.shape[1]
@@ -196,13 +196,20 @@ class BladeAerodynamics(Effect):
         grid, value, slope = s.polars.arrays
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
                               o.tolerance])
-        o_elem = packer.add(np.concatenate([self.r.ravel(), np.add(self.pitch, buf.twist).ravel(),
-                                            buf.chord.ravel()]))
+        o_elem = packer.add(np.concatenate([np.add(self.pitch, buf.twist).ravel(), buf.chord.ravel()]))
         o_T = packer.add(self.transfer)
         o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
-        o_scr = packer.scratch(B * M * 3 * 2 + 4 * B * M + 6 * B + 3 + 13 * B * M + B * N * 3)
-        ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr]
+        o_t0 = packer.add(self.t0)
+        o_slopes = packer.add(np.concatenate([np.ravel(g) for g in self.slopes]))
+        static_loss = s.loss is not None
+        o_loss = packer.add(np.concatenate([buf.c_tip.ravel(), buf.c_hub.ravel()])) if static_loss else 0
+        ne_el = self.elastic.shape[1]
+        o_corr = packer.add(self.correction) if ne_el else 0
+        o_scr = packer.scratch(5 * B * M * 3 + 8 * B * M + 3 + 13 * B * M + B * N * 3)
+        ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
+                o_t0, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
+        ints += list(np.asarray(self.elastic, np.int64).ravel())
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
