@@ -242,26 +242,47 @@ def test_smoke_simulate_steady_08_outputs(outb_08):
     first = out.iloc[0]
     for name in ("GenTq", "GenPwr", "Q_GeAz", "RotSpeed", "GenSpeed", "Azimuth"):
         assert first[name] == pytest.approx(outb_08[name].iloc[0], rel=1e-5, abs=1e-6), name
-    # the aerodynamic rotor loads at t = 0 (undeflected): BEM vs AeroDyn
-    assert first.RtAeroFxh == pytest.approx(outb_08.RtAeroFxh.iloc[0], rel=0.01)
-    assert first.RtAeroMxh == pytest.approx(outb_08.RtAeroMxh.iloc[0], rel=0.01)
+    # the aerodynamic rotor loads at t = 0 (undeflected): BEM vs AeroDyn (-0.01 %, -0.02 %
+    # since the AeroDyn nodes sit at the aerodynamic centres, BlCrvAC/BlSwpAC; -0.29 %, -0.61 % before)
+    assert first.RtAeroFxh == pytest.approx(outb_08.RtAeroFxh.iloc[0], rel=5e-4)
+    assert first.RtAeroMxh == pytest.approx(outb_08.RtAeroMxh.iloc[0], rel=5e-4)
     assert out.attrs["units"]["RtAeroFxh"] == "N" and out.attrs["units"]["GenPwr"] == "kW"
 
 
 #: the issue's tolerances on the 70-100 s means (relative)
 TOLERANCES = {"RotSpeed": 0.003, "GenPwr": 0.01, "RtAeroFxh": 0.01, "TTDspFA": 0.01, "OoPDefl1": 0.01,
               "IPDefl1": 0.03}
-_MEANS = {}
+#: ... on the standard deviations over 70-100 s (relative) and the NRMSE over 0-100 s
+STD_TOLERANCE = 0.10
+NRMSE_TOLERANCE = 0.02
+_RUNS = {}
+
+
+def run(case):
+    """(modesel outputs, OpenFAST outputs) of the whole case (cached)."""
+    if case not in _RUNS:
+        out = simulate(load_scene(CASES / case / f"{case}.fst")).outputs
+        _RUNS[case] = (out, read_openfast_output(CASES / case / f"{case}.outb"))
+    return _RUNS[case]
+
+
+def window(frame):
+    return frame[(frame.Time >= 70) & (frame.Time <= 100)]
 
 
 def means(case):
-    """{channel: (modesel, OpenFAST)} means over 70-100 s of the whole case (cached)."""
-    if case not in _MEANS:
-        out = simulate(load_scene(CASES / case / f"{case}.fst")).outputs
-        ref = read_openfast_output(CASES / case / f"{case}.outb")
-        a, b = out[(out.Time >= 70) & (out.Time <= 100)], ref[(ref.Time >= 70) & (ref.Time <= 100)]
-        _MEANS[case] = {c: (a[c].mean(), b[c].mean()) for c in TOLERANCES}
-    return _MEANS[case]
+    """{channel: (modesel, OpenFAST)} means over 70-100 s."""
+    out, ref = run(case)
+    a, b = window(out), window(ref)
+    return {c: (a[c].mean(), b[c].mean()) for c in TOLERANCES}
+
+
+def nrmse(case, channel):
+    """RMS of (modesel - OpenFAST) over the whole run / range of OpenFAST's channel."""
+    out, ref = run(case)
+    mine = np.interp(ref.Time, out.Time, out[channel])
+    diff = mine - ref[channel].to_numpy()
+    return float(np.sqrt(np.mean(diff ** 2)) / np.ptp(ref[channel].to_numpy()))
 
 
 def check(case, channels):
@@ -272,26 +293,42 @@ def check(case, channels):
     assert not bad, text
 
 
-_ROTOR_11P4 = pytest.mark.xfail(strict=False, reason=(
-    "measured means 70-100 s (with structural twist and ElastoDyn nodes): RotSpeed 12.235 vs 11.969 rpm "
-    "(+2.22 %), GenPwr 5056 vs 4901 kW (+3.16 %), RtAeroFxh 743.0 vs 715.4 kN (+3.86 %), TTDspFA 0.4010 vs "
-    "0.3846 m (+4.25 %), OoPDefl1 5.707 vs 5.446 m (+4.80 %), IPDefl1 -0.609 vs -0.580 m (+5.04 %): the "
-    "aerodynamic torque is ~1 % high, which puts modesel's rotor past VS_RtGnSp into region 3 (constant "
-    "torque) while OpenFAST stays on the region 2.5 slip line; open in issue 10"))
-_FLAP_08 = pytest.mark.xfail(strict=False, reason=(
-    "measured means 70-100 s: OoPDefl1 3.2357 vs 3.178 m (+1.81 %; RotSpeed +0.17 %, GenPwr +0.51 %, "
-    "RtAeroFxh +0.58 %, TTDspFA +0.84 % within tolerance): the aerodynamic load mapping onto ElastoDyn's "
-    "17 blade nodes is not yet AeroDyn's; open in issue 10"))
-
-
-@pytest.mark.parametrize("case", [pytest.param("steady_08", marks=_FLAP_08),
-                                  pytest.param("steady_11p4", marks=_ROTOR_11P4)])
+@pytest.mark.parametrize("case", ["steady_08", "steady_11p4"])
 def test_steady_means_rotor_tower_flap_match_openfast(case):
     """RotSpeed within 0.3 %, GenPwr, RtAeroFxh, TTDspFA, OoPDefl1 within 1 % (issue 10)."""
     check(case, ("RotSpeed", "GenPwr", "RtAeroFxh", "TTDspFA", "OoPDefl1"))
 
 
-@pytest.mark.parametrize("case", ["steady_08", pytest.param("steady_11p4", marks=_ROTOR_11P4)])
+@pytest.mark.parametrize("case", ["steady_08", "steady_11p4"])
 def test_steady_means_blade_in_plane_match_openfast(case):
     """IPDefl1 within 3 % (issue 10)."""
     check(case, ("IPDefl1",))
+
+
+_STD = {"steady_11p4": pytest.mark.xfail(strict=False, reason=(
+    "measured std 70-100 s: OoPDefl1 0.1149 vs 0.1030 m (+11.6 %; IPDefl1 0.3309 vs 0.3297 m, +0.4 %); "
+    "steady_08 passes (OoPDefl1 +6.7 %): the once-per-revolution flap swing at 11.4 m/s is too large; "
+    "open in issue 10"))}
+_NRMSE = {}
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=_STD.get(c, ())) for c in ("steady_08", "steady_11p4")])
+def test_steady_periodic_swing_matches_openfast(case):
+    """Standard deviation over 70-100 s of OoPDefl1 and IPDefl1 (the once-per-revolution
+    gravity and tilt swing) within 10 % of OpenFAST's (issue 10)."""
+    out, ref = run(case)
+    a, b = window(out), window(ref)
+    res = {c: (a[c].std(), b[c].std()) for c in ("OoPDefl1", "IPDefl1")}
+    text = ", ".join(f"std {c} {x:.4g} vs {y:.4g} m ({x / y - 1:+.1%})" for c, (x, y) in res.items())
+    print(f"\n{case}: {text}")
+    assert all(abs(x / y - 1) <= STD_TOLERANCE for x, y in res.values()), text
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=_NRMSE.get(c, ())) for c in ("steady_08", "steady_11p4")])
+def test_steady_time_series_match_openfast(case):
+    """NRMSE over the whole 100 s <= 2 % for RotSpeed, TTDspFA, OoPDefl1, IPDefl1 (issue 10):
+    the start-up transient from the undeflected state at the initial rotor speed too."""
+    res = {c: nrmse(case, c) for c in ("RotSpeed", "TTDspFA", "OoPDefl1", "IPDefl1")}
+    text = ", ".join(f"{c} {v:.2%}" for c, v in res.items())
+    print(f"\n{case}: NRMSE {text}")
+    assert all(v <= NRMSE_TOLERANCE for v in res.values()), text

@@ -132,27 +132,38 @@ def bem_elements(rng):
 
 @twin("blade_inflow")
 def blade_inflow(rng):
-    """model.effects.aero.inflow (numba) / Wind.vector and aero.skew_angles (numpy)."""
+    """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles and the
+    annulus frame of AeroDyn's NoSweepPitchTwist projection (numpy)."""
     B, M = 3, 9
     R = np.stack([random_rotation(rng) for _ in range(B + 1)])
     vec = rng.normal(0.0, 1.0, (B + 1, 5, 3))
     vec[0, 0, 2] = rng.uniform(60.0, 120.0)             # apex height [m]
     pos = vec[0, 0] + rng.normal(0.0, 40.0, (B, M, 3))
     vel = rng.normal(0.0, 20.0, (B, M, 3))
+    tangent = unit(R[1:, None, :, 2] + rng.normal(0.0, 0.1, (B, M, 3)))
     wind = Wind(rng.uniform(3.0, 25.0), rng.uniform(0.0, 0.4), rng.uniform(60.0, 120.0),
                 direction=rng.uniform(-0.5, 0.5))
-    vn, vt, skew, psi = (np.empty((B, M)) for _ in range(4))
-    en, et, vrel = np.empty((B, 3)), np.empty((B, 3)), np.empty(3)
-    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, wind.params(0.0), vn, vt, skew, psi, en, et, vrel)
+    vn, vt, skew, psi, r_local, ratio = (np.empty((B, M)) for _ in range(6))
+    en, et, vrel = np.empty((B, M, 3)), np.empty((B, M, 3)), np.empty(3)
+    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, tangent, wind.params(0.0), vn, vt, skew, psi, en, et,
+           r_local, ratio, vrel)
     xs, zb = R[0, :, 0], R[1:, :, 2]
-    e_n = unit(xs - (zb @ xs)[:, None] * zb)
-    e_t = np.cross(e_n, zb)
+    e_c = unit(xs - (zb @ xs)[:, None] * zb)                       # coned normal
+    e_t = np.cross(e_c, zb)
+    sin_c = np.einsum("bki,bi->bk", tangent, e_c)                  # out-of-plane angle of the section
+    e_n = np.sqrt(1 - sin_c ** 2)[..., None] * e_c[:, None, :] - sin_c[..., None] * zb[:, None, :]
     v_rel = wind.vector(pos[..., 2], 0.0, pos[..., 0], pos[..., 1]) - vel
     radial = unit(zb - (zb @ xs)[:, None] * xs)
-    chi0, psi_ref = skew_angles(wind.vector(vec[0, 0, 2], 0.0, vec[0, 0, 0], vec[0, 0, 1]) - vec[0, 1], xs, radial)
-    return [("disk-averaged v_rel", v_rel.reshape(-1, 3).mean(axis=0), vrel),
-            ("V_n", np.einsum("bki,bi->bk", v_rel, e_n), vn),
+    disk = v_rel.reshape(-1, 3).mean(axis=0)
+    chi0, psi_ref = skew_angles(disk, xs, radial)
+    p = pos - vec[0, 0]
+    r_ref = np.linalg.norm(p - (p @ xs)[..., None] * xs, axis=-1)
+    return [("disk-averaged v_rel", disk, vrel),
+            ("V_n", np.einsum("bki,bki->bk", v_rel, e_n), vn),
             ("V_t", -np.einsum("bki,bi->bk", v_rel, e_t), vt),
+            ("annulus normal", e_n, en),
+            ("r_local", r_ref, r_local),
+            ("tip ratio", r_ref / r_ref.max(axis=1, keepdims=True), ratio),
             ("chi_0", np.broadcast_to(chi0, (B, M)), skew),
             ("psi", np.broadcast_to(psi_ref[:, None], (B, M)), psi)]
 
@@ -303,7 +314,7 @@ def compiled_loads(rng):
     """The whole right-hand side with every load effect: Built.rhs (loads packed into the
     kernel, model/effects/compiled.py) / the effects' Python __call__ + KaneEquations
     (numpy reference and kernel): wind (steady with shear; time series; an InflowWind
-    table), BEM aero, tower drag, generator laws (NREL 5-MW, constant, ServoDyn
+    table), BEM aero (ElastoDyn blade nodes too), tower drag, generator laws (NREL 5-MW, constant, ServoDyn
     simple variable-speed and induction with their switches)."""
     out = rhs_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
                                   "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
@@ -314,6 +325,9 @@ def compiled_loads(rng):
                                   modes={"tower_fa": {"family": "elastodyn", "count": 1},
                                          "blade_flap": {"family": "elastodyn", "count": 1}}),
                      rng, "series wind, skew, rigid edge")
+    out += rhs_pairs(turbine_with({"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
+                                   "generator": {"mode": "variable_speed"}}),
+                     rng, "ElastoDyn blade nodes (aero's generalised-force correction)")
     out += rhs_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
                                                  "rated_torque": 43093.55, "region2_k": 0.0255764,
                                                  "slip_percent": 10.0, "on_speed_rpm": 900.0}}),

@@ -11,7 +11,10 @@ Element inputs (any broadcastable shapes, SI units)
 With v_rel = v_wind - v_element (air velocity relative to the moving element),
 e_n the rotor-axis direction (normal to the element's plane of rotation,
 downwind) and e_rot the direction of rotation at the element:
-r      distance of the element from the rotation axis [m]
+r      distance of the element from the rotation axis [m] (AeroDyn's rLocal:
+       the deflected element position projected on the rotor plane); it
+       sets the local solidity sigma' and, over the largest r of the blade,
+       the Pitt/Peters radius ratio
 V_n    normal inflow [m/s] = v_rel . e_n
 V_t    tangential inflow [m/s] = -v_rel . e_rot = rotor speed * r + the
        element's structural velocity along e_rot - the wind along e_rot
@@ -47,6 +50,13 @@ for callers at every right-hand side); the model functions (`prandtl_loss`,
 and by Python callers.
 As in AeroDyn (AIDrag/TIDrag = False by default) the drag terms in c_n, c_t
 can be left out of the induction; the loads always include drag.
+
+Tip and hub loss: F = 2/pi acos(exp(-c / |sin phi|)) with AeroDyn's loss
+constants c_tip = B (z_tip - z) / (2 z), c_hub = B (z - z_hub) / (2 z_hub),
+z the distance along the undeflected blade from the apex (AeroDyn's zLocal:
+the hub radius plus the polygon length through its nodes, `z_local`); without
+`z_local` the constants follow from r and the tip and hub radii (a straight
+coned blade: the same ratios).
 
 Safeguards follow AeroDyn (OpenFAST modules/aerodyn/src/BEMTUncoupled.f90): F is floored at 1e-4 in
 the induction equations; inductions are limited to -1 <= a <= 1.5 and
@@ -107,16 +117,21 @@ class BemOptions:
 # Compiled ufuncs: callable with arrays from Python and with scalars from the
 # compiled element loop below (one implementation of each model).
 
+@njit(cache=True, inline="always")
+def _prandtl(c, s):
+    """2/pi acos(exp(-c / |sin phi|)) (AeroDyn getHubTipLossCorrection), 0 for c <= 0."""
+    if c <= 0.0:
+        return 0.0
+    return (2.0 / np.pi) * np.arccos(np.exp(-c / max(abs(s), 1e-300)))
+
+
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
 def prandtl_factor(distance, num_blades, radius, sin_phi):
     """Prandtl factor 2/pi acos(exp(-B d / (2 rho |sin phi|))), 0 for d <= 0.
 
     Tip: d = R - r, rho = r.  Hub: d = r - R_hub, rho = R_hub.
     """
-    if distance <= 0.0:
-        return 0.0
-    f = 0.5 * num_blades * distance / (radius * max(abs(sin_phi), 1e-300))
-    return (2.0 / np.pi) * np.arccos(np.exp(-f))
+    return _prandtl(0.5 * num_blades * distance / radius, sin_phi)
 
 
 def prandtl_loss(r, tip_radius, hub_radius, num_blades, sin_phi, tip=True, hub=True):
@@ -211,33 +226,42 @@ def skew_angles(wind, axis, radial):
 
 
 # --------------------------------------------------------------------------- compiled solver
-# Per element: e = (r, theta = pitch + twist, sigma' / 4 = B c / (8 pi r),
-# lambda_r = V_t / V_n) and the polar row `offset`; rotor: m = (B, R, R_hub);
-# flags = (tip, hub, tangential induction, axial drag, tangential drag).
+# Per element: e = (c_tip, theta = pitch + twist, sigma' / 4 = B c / (8 pi r),
+# lambda_r = V_t / V_n, c_hub) and the polar row `offset` (c_tip, c_hub: the loss
+# constants, `loss_constants`); flags = (tip, hub, tangential induction, axial
+# drag, tangential drag).
 
 @njit(cache=True, inline="always")
-def _loss_raw(r, s, m, flags):
+def _loss_raw(e, s, flags):
     F = 1.0
     if flags[0]:
-        F *= prandtl_factor(m[1] - r, m[0], r, s)
+        F *= _prandtl(e[0], s)
     if flags[1]:
-        F *= prandtl_factor(r - m[2], m[0], m[2], s)
+        F *= _prandtl(e[4], s)
     return F
 
 
 @njit(cache=True, inline="always")
-def _loss(r, s, m, flags):
+def _loss(e, s, flags):
     """Loss factor as used in the induction: floored at F_MIN (as AeroDyn)."""
-    return max(_loss_raw(r, s, m, flags), F_MIN)
+    return max(_loss_raw(e, s, flags), F_MIN)
+
+
+def loss_constants(z, z_tip, z_hub, num_blades):
+    """AeroDyn's tip and hub loss constants (c_tip, c_hub) of elements at
+    distance z [m] from the apex along the blade: B (z_tip - z) / (2 z) and
+    B (z - z_hub) / (2 z_hub)."""
+    z = np.asarray(z, float)
+    return num_blades * (z_tip - z) / (2.0 * z), num_blades * (z - z_hub) / (2.0 * z_hub)
 
 
 @njit(cache=True, inline="always")
-def _residual(phi, e, offset, m, flags, grid, value, slope):
+def _residual(phi, e, offset, flags, grid, value, slope):
     """Ning's residual R(phi) (Ning 2014 eq. 22 with his propeller-brake branch)."""
     s, c = np.sin(phi), np.cos(phi)
     cl, cd, _ = polar_coefficients(phi - e[1], offset, grid, value, slope)
     cn = cl * c + cd * s if flags[3] else cl * c
-    F = _loss(e[0], s, m, flags)
+    F = _loss(e, s, flags)
     q = e[2] / F                                     # sigma' / (4 F)
     k = q * cn / (s * s)
     # sin(phi) / (1 - a): momentum s (1 + k); Buhl s / (1 - a); brake s (1 - k)
@@ -252,21 +276,21 @@ def _residual(phi, e, offset, m, flags, grid, value, slope):
 
 
 @njit(cache=True)
-def _solve_phi(e, offset, m, flags, grid, value, slope, tol, max_iter):
+def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter):
     """Bracket (Ning's order) and solve R(phi) = 0 with Chandrupatla's method.
 
     Returns (phi, found, iterations)."""
     eps = 1e-6
     lo, hi = eps, 0.5 * np.pi
-    f_lo = _residual(lo, e, offset, m, flags, grid, value, slope)
-    f_hi = _residual(hi, e, offset, m, flags, grid, value, slope)
+    f_lo = _residual(lo, e, offset, flags, grid, value, slope)
+    f_hi = _residual(hi, e, offset, flags, grid, value, slope)
     if f_lo * f_hi > 0.0:
-        f_a = _residual(-0.25 * np.pi, e, offset, m, flags, grid, value, slope)
-        f_b = _residual(-eps, e, offset, m, flags, grid, value, slope)
+        f_a = _residual(-0.25 * np.pi, e, offset, flags, grid, value, slope)
+        f_b = _residual(-eps, e, offset, flags, grid, value, slope)
         if f_a * f_b <= 0.0:
             lo, hi, f_lo, f_hi = -0.25 * np.pi, -eps, f_a, f_b
         else:
-            f_c = _residual(np.pi - eps, e, offset, m, flags, grid, value, slope)
+            f_c = _residual(np.pi - eps, e, offset, flags, grid, value, slope)
             if f_hi * f_c <= 0.0:
                 lo, f_lo, hi, f_hi = hi, f_hi, np.pi - eps, f_c
             else:
@@ -283,7 +307,7 @@ def _solve_phi(e, offset, m, flags, grid, value, slope, tol, max_iter):
     while it < max_iter:
         it += 1
         xt = x1 + t * (x2 - x1)
-        ft = _residual(xt, e, offset, m, flags, grid, value, slope)
+        ft = _residual(xt, e, offset, flags, grid, value, slope)
         if (ft > 0.0) == (f1 > 0.0):
             x3, f3 = x1, f1
         else:
@@ -305,37 +329,38 @@ def _solve_phi(e, offset, m, flags, grid, value, slope, tol, max_iter):
 
 
 @njit(cache=True)
-def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, grid, value, slope,
-                    B, R, Rh, rho, tip, hub, tan_ind, ai_drag, ti_drag,
+def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip, c_hub, grid, value, slope,
+                    B, rho, tip, hub, tan_ind, ai_drag, ti_drag,
                     skew_corr, skew_factor, tol, max_iter, out):
     """All elements; fills `out` rows: a, a', phi, alpha, cl, cd, cm, W, F,
-    f_n, f_t, m, converged. Returns the largest iteration count."""
+    f_n, f_t, m, converged. tip_ratio: r / R of the Pitt/Peters correction;
+    c_tip, c_hub: loss constants. Returns the largest iteration count."""
     worst = 0
-    m = (B, R, Rh)
     flags = (tip, hub, tan_ind, ai_drag, ti_drag)
     for i in range(r.size):
         ri = r[i]
         # AeroDyn "fixed inductions": no loss-factor support at/beyond the tip or hub
-        fixed = (tip and ri >= R) or (hub and ri <= Rh)
+        fixed = (tip and c_tip[i] <= 0.0) or (hub and c_hub[i] <= 0.0)
         a, ap, ok = (1.0, 0.0, True) if fixed else (0.0, 0.0, False)
+        e = (c_tip[i], theta[i], 0.0, 1.0, c_hub[i])
         if vn[i] > 0.0 and vt[i] > 0.0 and ri > 0.0 and not fixed:
             sigma4 = B * chord[i] / (8.0 * np.pi * ri)
-            e = (ri, theta[i], sigma4, vt[i] / vn[i])
-            phi, found, it = _solve_phi(e, offset[i], m, flags, grid, value, slope, tol, max_iter)
+            e = (c_tip[i], theta[i], sigma4, vt[i] / vn[i], c_hub[i])
+            phi, found, it = _solve_phi(e, offset[i], flags, grid, value, slope, tol, max_iter)
             worst = max(worst, it)
             if found:
                 s, c = np.sin(phi), np.cos(phi)
                 cl, cd, _ = polar_coefficients(phi - theta[i], offset[i], grid, value, slope)
                 cn = cl * c + cd * s if ai_drag else cl * c
                 ct = cl * s - cd * c if ti_drag else cl * s
-                F = _loss(ri, s, m, flags)
+                F = _loss(e, s, flags)
                 k = sigma4 * cn / (F * s * s)
                 a = axial_induction(k, F) if phi > 0.0 else k / (k - 1.0)
                 if tan_ind:
                     kp = sigma4 * ct / (F * s * c)
                     ap = kp / (1.0 - kp)
                 if skew_corr:
-                    a = pitt_peters(a, skew[i], psi[i], ri / R, skew_factor)
+                    a = pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
                 ok = np.isfinite(a) and np.isfinite(ap)
                 if ok:  # AeroDyn limitInductionFactors
                     a = min(max(a, A_LIMITS[0]), A_LIMITS[1])
@@ -350,7 +375,7 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, grid, value, slo
         qc = 0.5 * rho * w2 * chord[i]
         out[0, i], out[1, i], out[2, i], out[3, i] = a, ap, phi, phi - theta[i]
         out[4, i], out[5, i], out[6, i], out[7, i] = cl, cd, cm, np.sqrt(w2)
-        out[8, i] = 0.0 if fixed else _loss_raw(ri, s, m, flags)
+        out[8, i] = 0.0 if fixed else _loss_raw(e, s, flags)
         out[9, i] = qc * (cl * c + cd * s)
         out[10, i] = qc * (cl * s - cd * c)
         out[11, i] = qc * chord[i] * cm
@@ -405,6 +430,11 @@ class BemBuffers:
     offset: np.ndarray
     theta: np.ndarray
     out: np.ndarray
+    #: loss constants (static with `z_local`, else recomputed from r) and the
+    #: Pitt/Peters radius ratio of the last solve (`shape`)
+    c_tip: np.ndarray | None = None
+    c_hub: np.ndarray | None = None
+    tip_ratio: np.ndarray | None = None
 
     @property
     def f_n(self) -> np.ndarray:
@@ -435,10 +465,15 @@ class BemSolver:
 
     tip_radius, hub_radius : distances of the undeflected blade tip / root
         from the rotation axis [m] (coned: TipRad cos(precone)).
+    z_local, z_tip, z_hub : AeroDyn's distances along the undeflected blade
+        from the apex [m] of the elements, the tip and the root: the static
+        tip/hub loss constants (`loss_constants`). None: the constants follow
+        from the element radius r of each solve and tip_radius, hub_radius.
     """
 
     def __init__(self, chord, twist, airfoil, polars, *, num_blades: int, tip_radius: float,
-                 hub_radius: float, air_density: float = 1.225, options: BemOptions | None = None):
+                 hub_radius: float, air_density: float = 1.225, options: BemOptions | None = None,
+                 z_local=None, z_tip: float | None = None, z_hub: float | None = None):
         self.chord = np.asarray(chord, float)
         self.twist = np.asarray(twist, float)
         self.airfoil = np.asarray(airfoil, dtype=np.int64)
@@ -449,9 +484,10 @@ class BemSolver:
         self.hub_radius = float(hub_radius)
         self.air_density = float(air_density)
         self.options = options or BemOptions()
-        self._static = {}  # element shape -> (twist, chord, offset) broadcast to it
+        self.loss = None if z_local is None else loss_constants(z_local, z_tip, z_hub, self.num_blades)
+        self._static = {}  # element shape -> (twist, chord, offset, c_tip, c_hub) broadcast to it
         o = self.options
-        self._constants = (float(self.num_blades), self.tip_radius, self.hub_radius, self.air_density,
+        self._constants = (float(self.num_blades), self.air_density,
                            o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag,
                            o.tangential_drag, o.skew_correction, float(o.skew_factor),
                            float(o.tolerance), int(o.max_iterations))
@@ -465,17 +501,24 @@ class BemSolver:
 
     @classmethod
     def from_blade(cls, blade, span, *, num_blades: int, hub_radius: float, precone: float = 0.0,
-                   air_density: float = 1.225, options: BemOptions | None = None):
+                   air_density: float = 1.225, options: BemOptions | None = None,
+                   curve_losses: bool = False):
         """Elements at `span` [m from the blade root] of an `AeroBlade`.
 
         hub_radius : HubRad along the (coned) blade axis [m]; precone [rad].
         The tip radius from the axis is (HubRad + last BlSpn) cos(precone).
+        curve_losses : loss constants from AeroDyn's zLocal (`AeroBlade.curve_length`,
+        static) instead of the radius of each solve.
         """
         chord, twist, airfoil = blade.at(span)
         c = np.cos(precone)
+        curve = {}
+        if curve_losses:
+            z = blade.curve_length(hub_radius)
+            curve = dict(z_local=np.interp(span, blade.span, z), z_tip=float(z[-1]), z_hub=float(hub_radius))
         return cls(chord, twist, airfoil, blade.polars, num_blades=num_blades,
                    tip_radius=(hub_radius + blade.span[-1]) * c, hub_radius=hub_radius * c,
-                   air_density=air_density, options=options)
+                   air_density=air_density, options=options, **curve)
 
     def allocate(self, shape) -> BemBuffers:
         """Buffers for `solve_into` on elements of `shape` (the static element
@@ -483,17 +526,22 @@ class BemSolver:
         shape = tuple(shape)
         static = self._static.get(shape)
         if static is None:
+            loss = (np.empty(shape), np.empty(shape)) if self.loss is None else self.loss
             static = self._static[shape] = tuple(
-                np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (self.twist, self.chord, self.offset))
-        return BemBuffers(shape, *static, np.empty(shape), np.empty((13, int(np.prod(shape)))))
+                np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (self.twist, self.chord, self.offset)) \
+                + tuple(np.array(np.broadcast_to(x, shape), float) for x in loss)
+        return BemBuffers(shape, *static[:3], np.empty(shape), np.empty((13, int(np.prod(shape)))),
+                          *static[3:], np.empty(shape))
 
     def solve_into(self, buffers: BemBuffers, r, v_normal, v_tangential, pitch, skew,
-                   skew_azimuth) -> int:
+                   skew_azimuth, tip_ratio=None) -> int:
         """Solve all elements into `buffers` (from `allocate`) without allocating.
 
         r, v_normal, v_tangential, skew, skew_azimuth : C-contiguous float
         arrays of `buffers.shape` (or flat, of its size; inputs as in the
-        module docstring); pitch [rad] : broadcastable to `buffers.shape`.
+        module docstring); pitch [rad] : broadcastable to `buffers.shape`;
+        tip_ratio : r / R of the Pitt/Peters correction (AeroDyn: rLocal over
+        the largest rLocal of the blade), default r / tip_radius.
         Returns the largest root-solver iteration count; the loads are
         `buffers.f_n`, `buffers.f_t` or `buffers.loads()`.
         """
@@ -501,12 +549,22 @@ class BemSolver:
         if not r.size == v_normal.size == v_tangential.size == skew.size == skew_azimuth.size == n:
             raise ValueError(f"solve_into: element arrays must have shape {buffers.shape}")
         np.add(pitch, buffers.twist, out=buffers.theta)
+        flat_r = r.reshape(buffers.shape)
+        if self.loss is None:       # constants from the radius of this solve (straight coned blade)
+            np.copyto(buffers.c_tip, 0.5 * self.num_blades * (self.tip_radius - flat_r) / flat_r)
+            np.copyto(buffers.c_hub, 0.5 * self.num_blades * (flat_r - self.hub_radius) / self.hub_radius)
+        if tip_ratio is None:
+            np.divide(flat_r, self.tip_radius, out=buffers.tip_ratio)
+        else:
+            np.copyto(buffers.tip_ratio, np.reshape(tip_ratio, buffers.shape))
         grid, value, slope = self.polars.arrays
         return _solve_elements(r.ravel(), v_normal.ravel(), v_tangential.ravel(), buffers.theta.ravel(),
                                buffers.chord.ravel(), buffers.offset.ravel(), skew.ravel(),
-                               skew_azimuth.ravel(), grid, value, slope, *self._constants, buffers.out)
+                               skew_azimuth.ravel(), buffers.tip_ratio.ravel(), buffers.c_tip.ravel(),
+                               buffers.c_hub.ravel(), grid, value, slope, *self._constants, buffers.out)
 
-    def solve(self, r, v_normal, v_tangential, pitch=0.0, skew=0.0, skew_azimuth=0.0) -> ElementLoads:
+    def solve(self, r, v_normal, v_tangential, pitch=0.0, skew=0.0, skew_azimuth=0.0,
+              tip_ratio=None) -> ElementLoads:
         """Solve all elements; see the module docstring for inputs and outputs."""
         r, vn, vt, pitch, skew, psi = (np.asarray(x, dtype=float) for x in
                                        (r, v_normal, v_tangential, pitch, skew, skew_azimuth))
@@ -523,5 +581,6 @@ class BemSolver:
 
         buffers = self.allocate(shape)
         iterations = self.solve_into(buffers, *(flat(x) for x in (r, vn, vt)), pitch,
-                                     *(flat(x) for x in (skew, psi)))
+                                     *(flat(x) for x in (skew, psi)),
+                                     None if tip_ratio is None else flat(np.asarray(tip_ratio, float)))
         return buffers.loads(iterations)

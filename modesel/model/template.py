@@ -118,12 +118,34 @@ class TurbineModel:
     blade_twist: dict = field(default_factory=dict)
     #: the blades use ElastoDyn's discrete nodes (`elastodyn_nodes`)
     blade_elastodyn_nodes: bool = False
+    #: field -> (span grid [m], (count, 3, G) slope of each mode [1/m], pitched
+    #: blade frame) on which `station_slopes` interpolates
+    blade_slope: dict = field(default_factory=dict)
 
     def blade_tip_displacement(self, dof: str) -> np.ndarray:
         """Tip displacement [m per unit coordinate] of blade DOF `dof` in its
         pitched blade frame (ElastoDyn's TwistedSF at the tip)."""
         body = f"blade{dof[1]}"
         return np.asarray(self.tips[body]["displacement"].get(dof, np.zeros(3)), float)
+    def station_slopes(self, body: str, span: np.ndarray) -> np.ndarray:
+        """(M, 3, ne) slope d(displacement)/ds of each elastic coordinate of a
+        blade at `span` [m from the root] in its pitched frame [1/m]: the
+        rotation of the blade section that ElastoDyn hands AeroDyn. On
+        ElastoDyn's discrete nodes it is interpolated linearly between the
+        root (0), the node slopes and the tip slope, as OpenFAST's line2
+        mesh mapping carries ElastoDyn's node orientations to AeroDyn's nodes;
+        else the analytic slope (with the structural-twist correction)."""
+        b = self.system.body(body)
+        span = np.clip(np.asarray(span, float), 0.0, self.turbine.blade.length)
+        out = np.zeros((len(span), 3, b.n_elastic))
+        col = 0
+        for fld in self.blade_fields:
+            grid, slope = self.blade_slope[fld]
+            k = slope.shape[0]
+            out[:, :, col:col + k] = np.transpose(interpolate_fine(grid, slope, span), (2, 1, 0))
+            col += k
+        return out
+
     def station_shapes(self, body: str, span: np.ndarray):
         """Undeformed positions s0 (M,3), shapes Phi (M,3,ne) and axial
         shortening matrices S (M,ne,ne) of extra points at `span` [m from the
@@ -281,6 +303,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     weights = {}
     spans = {}
     blade_twist = {}
+    blade_slope = {}
 
     # ---- platform (only when a platform DOF is used)
     uses_platform = any(d in ("PtfmSurge", "PtfmPitch") for d in list(free) + list(fixed) + list(prescribed))
@@ -384,8 +407,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                 # the nodes and tip (as differences to e phi, see FieldShapes)
                 at_nodes, at_tip = evaluated[fld][:2]
                 theta = np.interp(sb_nodes, t.blade.span - t.blade.span[0], t.blade.twist)
-                disp, slope, dtip, _ = elastodyn_twisted(fld, float(wb_nodes[0]), at_nodes.ddphi / L**2,
-                                                         theta if structural_twist else 0.0 * theta)
+                disp, slope, dtip, slope_tip = elastodyn_twisted(fld, float(wb_nodes[0]), at_nodes.ddphi / L**2,
+                                                                 theta if structural_twist else 0.0 * theta)
                 e = FIELD_DIRECTION[fld][None, :, None]
                 dn = disp - e * at_nodes.phi[:, None, :]
                 dt_ = dtip - e[:, :, 0] * at_tip.phi[:, :1]
@@ -393,10 +416,15 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                 grid = np.concatenate([[0.0], sb_nodes, [L]])
                 blade_twist[fld] = (grid, np.concatenate([np.zeros(dn.shape[:2] + (1,)), dn, dt_[:, :, None]],
                                                          axis=-1))
+                blade_slope[fld] = (grid, np.concatenate([np.zeros(dn.shape[:2] + (1,)), slope,
+                                                          slope_tip[:, :, None]], axis=-1))
             elif structural_twist and np.any(t.blade.twist != 0.0):
                 disp, slope = twist_correction(fld, fine_b, evaluated[fld][2].ddphi / L**2, theta_fine)
                 twisted[fld] = (disp, slope, interpolate_fine(fine_b, disp, sb_nodes), disp[:, :, -1])
                 blade_twist[fld] = (fine_b, disp)
+            if fld not in blade_slope:
+                analytic = FIELD_DIRECTION[fld][None, :, None] * (evaluated[fld][2].dphi / L)[:, None, :]
+                blade_slope[fld] = (fine_b, analytic + (twisted[fld][1] if fld in twisted else 0.0))
         root = t.blade.root_offset
         for b in range(1, t.num_blades + 1):
             psi = 2 * np.pi * (b - 1) / t.num_blades
@@ -442,4 +470,5 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     free_all = elastic + [d for d in RIGID_DOFS if d in free]
     system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
     return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
-                        reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed))
+                        reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed),
+                        blade_slope)

@@ -178,6 +178,8 @@ def read_aerodyn_blade(path: str, polars: PolarSet) -> AeroBlade:
         chord = np.asarray(data["BlChord"], float)
         twist = np.radians(np.asarray(data["BlTwist"], float))
         afid = np.asarray(data["BlAFID"], float)
+        offsets = {k: np.asarray(data.get(k, np.zeros(span.shape)), float) for k in ("BlCrvAC", "BlSwpAC")}
+        crv_angle = np.radians(np.asarray(data.get("BlCrvAng", np.zeros(span.shape)), float))
     except Exception as exc:
         raise ModeselError(f"cannot read AeroDyn blade file ({type(exc).__name__}: {exc})",
                            file=path) from exc
@@ -185,7 +187,8 @@ def read_aerodyn_blade(path: str, polars: PolarSet) -> AeroBlade:
         raise ModeselError(f"BlAFID must be integers in 1..{len(polars)}", file=path,
                            field="BlAFID")
     return AeroBlade(span=span, chord=chord, twist=twist, airfoil=afid.astype(int) - 1,
-                     polars=polars, source=path)
+                     polars=polars, source=path, crv_ac=offsets["BlCrvAC"], swp_ac=offsets["BlSwpAC"],
+                     crv_angle=crv_angle)
 
 
 def read_aerodyn(path) -> AeroDynDeck:

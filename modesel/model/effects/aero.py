@@ -8,22 +8,27 @@ Pitt-Peters skew; the work of the loads, eq. 52, enters as node forces).
 
 Needs [effects.wind]. At every right-hand side:
 
-1. Stations: the AeroDyn blade nodes (BlSpn), as points of each flexible
-   blade with the blade's own mode shapes evaluated there
+1. Stations: the AeroDyn blade nodes, at the aerodynamic centres
+   (BlCrvAC, BlSwpAC, BlSpn) of the pitched blade frame, as points of each
+   flexible blade with the blade's own mode shapes evaluated there
    (`TurbineModel.station_shapes`); their inertial positions and
    velocities include all structural motion (tower, nacelle, rotor speed,
    blade vibration) through the engine's kinematics (`kinematics.py`).
-2. Inflow: v_rel = wind(z, t) - v_station. With x_s the shaft axis (hub
-   frame x) and z_b the blade's (coned, undeflected) axis, the element
-   normal is e_n = unit(x_s - (x_s . z_b) z_b) (downwind, normal to the
-   coned blade) and the direction of rotation e_t = e_n x z_b; then
-   V_n = v_rel . e_n and V_t = -v_rel . e_t (rotor speed times radius plus
-   the blade's own in-plane motion). The element radius is the undeflected
-   r = (HubRad + BlSpn) cos(precone), as in `aero.steady_rotor`.
-3. Skew (Pitt-Peters): chi_0 is the angle between x_s and the hub-height
-   wind relative to the hub (wind at the apex minus the hub velocity), so a
-   shaft tilt, a yaw error or nacelle motion skew the wake; psi is each
-   blade's azimuth from the in-plane direction of that relative wind.
+2. Inflow (AeroDyn's legacy NoSweepPitchTwist projection, BEM_Mod 1):
+   v_rel = wind(station, t) - v_station. With x_s the shaft axis and z_b
+   the blade's (coned, pitched) axis, the coned normal is
+   e_c = unit(x_s - (x_s . z_b) z_b) and the direction of rotation
+   e_t = e_c x z_b. The section's out-of-plane angle theta (sin theta =
+   t . e_c, t the deflected unit tangent from the station slopes,
+   `TurbineModel.station_slopes`, and BlCrvAng) turns the annulus normal:
+   e_n = cos(theta) e_c - sin(theta) z_b. V_n = v_rel . e_n,
+   V_t = -v_rel . e_t. The local radius r is the station's distance from
+   the shaft axis (deflected); the Pitt/Peters radius ratio is r over the
+   blade's largest r; the tip/hub loss constants use AeroDyn's zLocal.
+3. Skew (Pitt-Peters): chi_0 is the angle between x_s and the
+   disk-averaged relative wind (wind minus station velocity over all
+   stations, AeroDyn's V_diskAvg); psi is each blade's azimuth from the
+   in-plane direction of that wind.
 4. BEM for all blades and stations at once -> f_n, f_t [N/m]:
    `BemSolver.solve_into` on buffers preallocated once (`StationBem`;
    `solve` allocates its result at every call, which costs as much as the
@@ -33,16 +38,15 @@ Needs [effects.wind]. At every right-hand side:
    multiplied by the node quadrature weights w_k [m]: node force
    F_k = f(s_k) w_k, applied at the deflected node. The sectional pitching
    moment is not applied (the blades have no torsion DOF).
-   On ElastoDyn's discrete blade nodes (`elastodyn_nodes`, a handful of
-   midpoints that a midpoint rule on f would under-resolve near the tip)
-   the transfer follows OpenFAST's mesh mapping instead: the AeroDyn line
-   loads (linear between stations) are lumped to point loads at the
-   stations, F_a = int N_a f ds (hat functions N_a), and each is carried to
-   the structural nodes by the transpose of the linear interpolation (and
-   extrapolation beyond the first and last node) along the span, which
-   keeps the total force and its moment about the root and does the same
-   virtual work as F_a at r_a on the piecewise-linear blade line
-   (`_lumped_transfer`).
+   On ElastoDyn's discrete blade nodes (`elastodyn_nodes`) the node forces
+   are the lumped line loads (hat functions) carried by the transpose of
+   the linear interpolation along the span (`_lumped_transfer`: total force
+   and moment kept, so the rigid-body loads are exact), and the blade's
+   elastic coordinates get the generalised forces of OpenFAST's mapping
+   instead (`_elastodyn_correction`, `elastic_correction`): each lumped
+   point load moved to the nearest ElastoDyn node with the moment of its
+   offset and the element end moments of ModMesh's lumping, which
+   ElastoDyn applies through the node's shape and slope.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
 of node forces along x_s, RtAeroMxh [N m] = sum of their moments about x_s
@@ -117,25 +121,39 @@ class BladeAerodynamics(Effect):
             raise self.error(f"the AeroDyn blade ({span[-1]:g} m) and the structural blade "
                              f"({t.blade.length:g} m) differ in length", "aerodyn")
         solver = BemSolver.from_blade(deck.blade, span, num_blades=t.num_blades, hub_radius=t.hub_radius,
-                                           precone=float(t.precone[0]),
+                                      precone=float(t.precone[0]),
                                       air_density=(deck.air_density if self.options["air_density"] is None
                                                    else self.options["air_density"]),
-                                           options=BemOptions.from_deck(deck, **over))
+                                      options=BemOptions.from_deck(deck, **over), curve_losses=True)
         B, M = t.num_blades, len(span)
         self.bem = StationBem(solver, B)
         self.names = [f"blade{b}" for b in range(1, B + 1)]
         self.stations = []
         self.nodes = []
+        self.slopes = []
         for name in self.names:
             s0, Phi, S = model.station_shapes(name, span)
+            s0[:, :2] += deck.blade.reference_line()[:, :2]     # AeroDyn's nodes: the aerodynamic centres
             self.stations.append(PointSet.of_points(eq, name, s0, Phi, S))
             self.nodes.append(PointSet.of_body(eq, name))
-        self.r = np.broadcast_to((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None],
-                                 (B, M)).copy()
+            self.slopes.append(np.ascontiguousarray(model.station_slopes(name, span)))
+        crv = deck.blade.crv_angle
+        self.t0 = np.ascontiguousarray(np.stack([np.sin(crv), 0.0 * crv, np.cos(crv)], axis=1))
+        self.r = np.empty((B, M))
+        self.tip_ratio = np.empty((B, M))
+        self.tangent = np.empty((B, M, 3))
         nodes_span = self.nodes[0].s0[:, 2]
         self.weights = np.asarray(model.weights[self.names[0]], float)
+        self.elastic = np.zeros((B, 0), dtype=np.int64)
         if model.blade_elastodyn_nodes:
             self.transfer = _lumped_transfer(span, nodes_span, self.weights > 0)
+            structural = self.weights > 0
+            body = eq.system.body(self.names[0])
+            phi = np.asarray(body.shapes, float)
+            slopes = model.station_slopes(self.names[0], nodes_span)
+            self.correction = np.ascontiguousarray(_elastodyn_correction(
+                deck.blade.reference_line(), nodes_span, phi, slopes, structural, self.transfer))
+            self.elastic = np.array([st.idx for st in self.stations], dtype=np.int64)
         else:
             self.transfer = _sampled_transfer(span, nodes_span, self.weights)
         self.hub = eq.body_index["hub"]
@@ -145,28 +163,31 @@ class BladeAerodynamics(Effect):
         self.vel = np.empty((B, M, 3))
         self.vrel = np.empty(3)
         self.vn, self.vt, self.skew, self.psi = (np.empty((B, M)) for _ in range(4))
-        self.en = np.empty((B, 3))
-        self.et = np.empty((B, 3))
+        self.en = np.empty((B, M, 3))
+        self.et = np.empty((B, M, 3))
         self.forces = np.empty((B, len(nodes_span), 3))
-        self.rmax = float(self.r.max())
+        self.rmax = float(np.max((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None]))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         frames = built.frames(q_all, qd_all)
+        R, vec = frames
         for b, st in enumerate(self.stations):
             st.kinematics(frames, q_all, qd_all, self.pos[b], self.vel[b])
-        R, vec = frames
-        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.wind.params(t),
-               self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.vrel)
-        fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi)
+            station_tangents(R[self.blades[b]], self.t0, self.slopes[b], q_all[st.idx], self.tangent[b])
+        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.tangent, self.wind.params(t),
+               self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.r, self.tip_ratio, self.vrel)
+        fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio)
         distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
+        if self.elastic.shape[1]:
+            elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
 
     def compile_loads(self, built, packer, node_start):
-        """Pack this effect for the compiled loop (`effects.compiled`): the
-        same arrays `__call__` uses, and `solve_into`'s arguments."""
+        """Pack this effect for the compiled loop (`effects.compiled._aero`):
+        the same arrays `__call__` uses, and `solve_into`'s arguments."""
         from modesel.model.effects.packing import AERO, point_set_ints
         B, M = self.r.shape
         N = self.forces.shape[1]
@@ -175,13 +196,20 @@ class BladeAerodynamics(Effect):
         grid, value, slope = s.polars.arrays
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
                               o.tolerance])
-        o_elem = packer.add(np.concatenate([self.r.ravel(), np.add(self.pitch, buf.twist).ravel(),
-                                            buf.chord.ravel()]))
+        o_elem = packer.add(np.concatenate([np.add(self.pitch, buf.twist).ravel(), buf.chord.ravel()]))
         o_T = packer.add(self.transfer)
         o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
-        o_scr = packer.scratch(B * M * 3 * 2 + 4 * B * M + 6 * B + 3 + 13 * B * M + B * N * 3)
-        ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr]
+        o_t0 = packer.add(self.t0)
+        o_slopes = packer.add(np.concatenate([np.ravel(g) for g in self.slopes]))
+        static_loss = s.loss is not None
+        o_loss = packer.add(np.concatenate([buf.c_tip.ravel(), buf.c_hub.ravel()])) if static_loss else 0
+        ne_el = self.elastic.shape[1]
+        o_corr = packer.add(self.correction) if ne_el else 0
+        o_scr = packer.scratch(5 * B * M * 3 + 8 * B * M + 3 + 13 * B * M + B * N * 3)
+        ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
+                o_t0, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
+        ints += list(np.asarray(self.elastic, np.int64).ravel())
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
@@ -223,8 +251,8 @@ class StationBem:
         self.solver = solver
         self.buffers = solver.allocate((n_blades, solver.chord.size))
 
-    def __call__(self, r, vn, vt, pitch, skew, psi):
-        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi)
+    def __call__(self, r, vn, vt, pitch, skew, psi, tip_ratio=None):
+        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi, tip_ratio)
         return self.buffers.f_n, self.buffers.f_t
 
 
@@ -281,6 +309,65 @@ def _lumped_transfer(stations, at, structural):
     return W @ Lmp
 
 
+def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
+    """(M, 3, ne) matrix D: the generalised forces of a blade's elastic
+    coordinates as ElastoDyn receives them from AeroDyn, minus those of the
+    node forces T f (`_lumped_transfer`), per unit line load at each station:
+    Q_j = sum_b f_b . D[b, :, j] (f in the pitched blade frame).
+
+    OpenFAST maps AeroDyn's line2 loads to ElastoDyn's point mesh
+    (ModMesh_Mapping Lump_Line2_to_Point, then point to point): the line load,
+    linear between stations, is lumped to point forces F_a (hat functions)
+    and, per element of length h with end loads f_1, f_2, end moments
+    +-(h^2/12) z x (f_1 + f_2); each point load goes to the *nearest*
+    structural node n with the moment of its offset, (r_a - r_n) x F_a.
+    ElastoDyn applies a node force through the node's displacement shape
+    and a node moment through its rotation (the slopes: a moment M does the
+    work M . (z x s_j)). line (M, 3): station positions in the blade frame;
+    nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
+    their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
+    line = np.asarray(line, float)
+    M, ne = len(line), phi.shape[2]
+    idx = np.flatnonzero(structural)
+    node_pos = np.zeros((len(idx), 3))
+    node_pos[:, 2] = np.asarray(nodes, float)[idx]
+    near = idx[np.argmin(np.linalg.norm(line[:, None, :] - node_pos[None, :, :], axis=2), axis=1)]
+    dz = line[:, 2] - np.asarray(nodes, float)[near]
+    # rotation of node n per unit coordinate: theta = z x s, so (dz z x F) . theta = dz F . s
+    virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (M, 3, ne)
+    span = line[:, 2]
+    h = np.diff(span)
+    Lmp = np.zeros((M, M))
+    for k, hk in enumerate(h):
+        Lmp[k, k] += hk / 3.0
+        Lmp[k, k + 1] += hk / 6.0
+        Lmp[k + 1, k + 1] += hk / 3.0
+        Lmp[k + 1, k] += hk / 6.0
+    D = np.einsum("ab,aij->bij", Lmp, virtual) - np.einsum("ib,ikj->bkj", T, phi)
+    for k, hk in enumerate(h):     # element end moments: (h^2/12) (f_1 + f_2) . (s(n_1) - s(n_2))
+        ds = (hk * hk / 12.0) * (slopes[near[k]] - slopes[near[k + 1]])
+        D[k] += ds
+        D[k + 1] += ds
+    return D
+
+
+@njit(cache=True)
+def elastic_correction(fn, ft, en, et, R, blades, D, elastic, generalized):
+    """generalized[elastic[b, j]] += sum_a f_a . D[a, :, j], f_a = f_n,a e_n,a
+    + f_t,a e_t,a turned into blade b's frame (`_elastodyn_correction`)."""
+    for b in range(blades.shape[0]):
+        Rb = R[blades[b]]
+        for a in range(D.shape[0]):
+            g0 = fn[b, a] * en[b, a, 0] + ft[b, a] * et[b, a, 0]
+            g1 = fn[b, a] * en[b, a, 1] + ft[b, a] * et[b, a, 1]
+            g2 = fn[b, a] * en[b, a, 2] + ft[b, a] * et[b, a, 2]
+            f0 = Rb[0, 0] * g0 + Rb[1, 0] * g1 + Rb[2, 0] * g2
+            f1 = Rb[0, 1] * g0 + Rb[1, 1] * g1 + Rb[2, 1] * g2
+            f2 = Rb[0, 2] * g0 + Rb[1, 2] * g1 + Rb[2, 2] * g2
+            for j in range(D.shape[2]):
+                generalized[elastic[b, j]] += f0 * D[a, 0, j] + f1 * D[a, 1, j] + f2 * D[a, 2, j]
+
+
 def _linear_weights(stations, at):
     """Index lo and fraction so that f(at) = (1-frac) f[lo] + frac f[lo+1]
     (linear interpolation between stations, ends held)."""
@@ -291,18 +378,33 @@ def _linear_weights(stations, at):
 
 
 @njit(cache=True)
-def inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel):
+def station_tangents(R_blade, t0, G, qe, out):
+    """Unit tangents (M, 3), inertial, of the deflected blade at its stations:
+    R_blade (t0_k + G_k q_e) normalised; t0 (M, 3) the undeflected tangent
+    in the blade frame (the axis, turned by BlCrvAng), G (M, 3, ne) the
+    slopes per unit coordinate (`TurbineModel.station_slopes`)."""
+    for k in range(G.shape[0]):
+        d0, d1, d2 = t0[k, 0], t0[k, 1], t0[k, 2]
+        for l in range(qe.shape[0]):
+            d0 += G[k, 0, l] * qe[l]
+            d1 += G[k, 1, l] * qe[l]
+            d2 += G[k, 2, l] * qe[l]
+        n = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        for i in range(3):
+            out[k, i] = (R_blade[i, 0] * d0 + R_blade[i, 1] * d1 + R_blade[i, 2] * d2) / n
+
+
+@njit(cache=True)
+def inflow(R, vec, hub, blades, pos, vel, tangent, wp, vn, vt, skew, psi, en, et, r_local, tip_ratio, vrel):
     """Element inflow (module doc, steps 2-3) for all blades and stations;
-    wp = `Wind.params(t)`. vrel receives the disk-averaged relative wind
-    (wind minus station velocity, averaged over all stations)."""
+    wp = `Wind.params(t)`, tangent (B, M, 3) the deflected blade's unit
+    tangents (`station_tangents`). Fills vn, vt, en, et (B, M, 3: the
+    annulus normal and the direction of rotation of each station), r_local
+    and tip_ratio (B, M), skew and psi (B, M), and vrel (3,) the
+    disk-averaged relative wind (wind minus station velocity, averaged
+    over all stations)."""
     xs = R[hub, :, 0]
-    apex, vhub = vec[hub, 0], vec[hub, 1]
-    u0, u1, u2 = wind_velocity(wp, apex[0], apex[1], apex[2])
-    w0, w1, w2 = u0 - vhub[0], u1 - vhub[1], u2 - vhub[2]
-    wa = w0 * xs[0] + w1 * xs[1] + w2 * xs[2]
-    p0, p1, p2 = w0 - wa * xs[0], w1 - wa * xs[1], w2 - wa * xs[2]
-    wp_ = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-    chi0 = np.arctan2(wp_, wa)
+    apex = vec[hub, 0]
     vrel[0] = 0.0
     vrel[1] = 0.0
     vrel[2] = 0.0
@@ -313,16 +415,15 @@ def inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel):
         nn = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         n0, n1, n2 = n0 / nn, n1 / nn, n2 / nn
         t0, t1, t2 = n1 * zb[2] - n2 * zb[1], n2 * zb[0] - n0 * zb[2], n0 * zb[1] - n1 * zb[0]
-        en[b, 0], en[b, 1], en[b, 2] = n0, n1, n2
-        et[b, 0], et[b, 1], et[b, 2] = t0, t1, t2
-        # blade azimuth from the in-plane relative wind (Pitt-Peters psi)
-        r0, r1, r2 = zb[0] - c * xs[0], zb[1] - c * xs[1], zb[2] - c * xs[2]
-        rr = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-        psi_b = 0.0
-        if wp_ > 0.0:
-            cp = (r0 * p0 + r1 * p1 + r2 * p2) / (rr * wp_)
-            psi_b = np.arccos(min(1.0, max(-1.0, cp)))
+        rmax = 0.0
         for k in range(pos.shape[1]):
+            # annulus normal: the coned normal turned about the coned y axis by
+            # the section's out-of-plane angle (AeroDyn NoSweepPitchTwist)
+            s_ = tangent[b, k, 0] * n0 + tangent[b, k, 1] * n1 + tangent[b, k, 2] * n2
+            c_ = np.sqrt(max(0.0, 1.0 - s_ * s_))
+            a0, a1, a2 = c_ * n0 - s_ * zb[0], c_ * n1 - s_ * zb[1], c_ * n2 - s_ * zb[2]
+            en[b, k, 0], en[b, k, 1], en[b, k, 2] = a0, a1, a2
+            et[b, k, 0], et[b, k, 1], et[b, k, 2] = t0, t1, t2
             uk0, uk1, uk2 = wind_velocity(wp, pos[b, k, 0], pos[b, k, 1], pos[b, k, 2])
             v0 = uk0 - vel[b, k, 0]
             v1 = uk1 - vel[b, k, 1]
@@ -330,29 +431,51 @@ def inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel):
             vrel[0] += v0
             vrel[1] += v1
             vrel[2] += v2
-            vn[b, k] = v0 * n0 + v1 * n1 + v2 * n2
+            vn[b, k] = v0 * a0 + v1 * a1 + v2 * a2
             vt[b, k] = -(v0 * t0 + v1 * t1 + v2 * t2)
-            skew[b, k] = chi0
-            psi[b, k] = psi_b
+            # local radius: the station projected on the rotor plane
+            p0, p1, p2 = pos[b, k, 0] - apex[0], pos[b, k, 1] - apex[1], pos[b, k, 2] - apex[2]
+            pa = p0 * xs[0] + p1 * xs[1] + p2 * xs[2]
+            p0, p1, p2 = p0 - pa * xs[0], p1 - pa * xs[1], p2 - pa * xs[2]
+            r_local[b, k] = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+            rmax = max(rmax, r_local[b, k])
+        for k in range(pos.shape[1]):
+            tip_ratio[b, k] = r_local[b, k] / rmax
     n = blades.shape[0] * pos.shape[1]
     vrel[0] /= n
     vrel[1] /= n
     vrel[2] /= n
+    # skew (Pitt-Peters) from the disk-averaged relative wind (AeroDyn DiskAvgValues)
+    wa = vrel[0] * xs[0] + vrel[1] * xs[1] + vrel[2] * xs[2]
+    q0, q1, q2 = vrel[0] - wa * xs[0], vrel[1] - wa * xs[1], vrel[2] - wa * xs[2]
+    wp_ = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    chi0 = np.arctan2(wp_, wa)
+    for b in range(blades.shape[0]):
+        zb = R[blades[b], :, 2]
+        c = xs[0] * zb[0] + xs[1] * zb[1] + xs[2] * zb[2]
+        r0, r1, r2 = zb[0] - c * xs[0], zb[1] - c * xs[1], zb[2] - c * xs[2]
+        rr = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        psi_b = 0.0
+        if wp_ > 0.0:
+            cp = (r0 * q0 + r1 * q1 + r2 * q2) / (rr * wp_)
+            psi_b = np.arccos(min(1.0, max(-1.0, cp)))
+        for k in range(pos.shape[1]):
+            skew[b, k] = chi0
+            psi[b, k] = psi_b
 
 
 @njit(cache=True)
 def distribute(fn, ft, en, et, T, out):
-    """Node forces out[b, i] = sum_a T[i, a] (f_n,a e_n + f_t,a e_t) from the
-    loads per unit length at the stations (module doc, step 5)."""
+    """Node forces out[b, i] = sum_a T[i, a] (f_n,a e_n,a + f_t,a e_t,a) from
+    the loads per unit length at the stations (module doc, step 5; en, et
+    (B, M, 3) per station)."""
     for b in range(out.shape[0]):
         for i in range(out.shape[1]):
-            n = 0.0
-            t = 0.0
-            for a in range(T.shape[1]):
-                n += T[i, a] * fn[b, a]
-                t += T[i, a] * ft[b, a]
             for c in range(3):
-                out[b, i, c] = n * en[b, c] + t * et[b, c]
+                v = 0.0
+                for a in range(T.shape[1]):
+                    v += T[i, a] * (fn[b, a] * en[b, a, c] + ft[b, a] * et[b, a, c])
+                out[b, i, c] = v
 
 
 EFFECT = BladeAerodynamics

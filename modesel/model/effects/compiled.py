@@ -9,7 +9,8 @@ on-disk cache)
 evaluates them by a dispatch on the effect kind. The physics are the same
 compiled functions the Python path (`Built.M_F`, effects' `__call__`)
 calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
-`effects.aero.inflow`/`distribute`, `aero.bem.solve_elements`,
+`effects.aero.station_tangents`/`inflow`/`distribute`/
+`elastic_correction`, `aero.bem.solve_elements`,
 `aero.tower_drag.drag_forces`, `effects.generator.switched_torque`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
 sides equal).
@@ -27,7 +28,7 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import distribute, inflow
+from modesel.model.effects.aero import distribute, elastic_correction, inflow, station_tangents
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
@@ -77,21 +78,33 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 
 
 @njit(cache=True)
-def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
-    """Blade BEM loads (effects/aero.py, steps 1-5)."""
+def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
+    """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
+    station kinematics and tangents, inflow, BEM, distribution to the nodes,
+    ElastoDyn's generalised-force correction when packed."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
                                                                 ints[p + 10])
-    p += 11
+    o_t0, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
+                                                          ints[p + 14], ints[p + 15], ints[p + 16])
+    p += 17
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
     p += 2 * B + B * M
+    elastic = ints[p:p + B * ne_el].reshape((B, ne_el))
+    p += B * ne_el
     o = o_scr
     pos = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
     vel = state[o:o + B * M * 3].reshape((B, M, 3))
+    o += B * M * 3
+    tangent = state[o:o + B * M * 3].reshape((B, M, 3))
+    o += B * M * 3
+    en = state[o:o + B * M * 3].reshape((B, M, 3))
+    o += B * M * 3
+    et = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
     vn = state[o:o + B * M].reshape((B, M))
     o += B * M
@@ -101,32 +114,58 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
     o += B * M
     psi = state[o:o + B * M].reshape((B, M))
     o += B * M
-    en = state[o:o + 3 * B].reshape((B, 3))
-    o += 3 * B
-    et = state[o:o + 3 * B].reshape((B, 3))
-    o += 3 * B
+    r_local = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    tip_ratio = state[o:o + B * M].reshape((B, M))
+    o += B * M
+    c_tip = state[o:o + B * M]
+    o += B * M
+    c_hub = state[o:o + B * M]
+    o += B * M
     vrel = state[o:o + 3]
     o += 3
     out = state[o:o + 13 * B * M].reshape((13, B * M))
     o += 13 * B * M
     forces = state[o:o + B * N * 3].reshape((B, N, 3))
+    t0 = floats[o_t0:o_t0 + 3 * M].reshape((M, 3))
+    so = o_slopes
     for b in range(B):
+        ne = ints[p + 2]
+        qe = np.empty(ne)
+        for l in range(ne):
+            qe[l] = q_all[ints[p + 4 + l]]
+        Gs = floats[so:so + M * 3 * ne].reshape((M, 3, ne))
+        so += M * 3 * ne
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
+        station_tangents(R[blades[b]], t0, Gs, qe, tangent[b])
     wp = state[0:N_PARAMS]
-    inflow(R, vec, hub, blades, pos, vel, wp, vn, vt, skew, psi, en, et, vrel)
+    inflow(R, vec, hub, blades, pos, vel, tangent, wp, vn, vt, skew, psi, en, et, r_local, tip_ratio, vrel)
     c = floats[o_const:o_const + 6]
-    r = floats[o_elem:o_elem + B * M]
-    theta = floats[o_elem + B * M:o_elem + 2 * B * M]
-    chord = floats[o_elem + 2 * B * M:o_elem + 3 * B * M]
+    theta = floats[o_elem:o_elem + B * M]
+    chord = floats[o_elem + B * M:o_elem + 2 * B * M]
+    r = r_local.ravel()
+    if static_loss != 0:
+        c_tip[:] = floats[o_loss:o_loss + B * M]
+        c_hub[:] = floats[o_loss + B * M:o_loss + 2 * B * M]
+    else:                 # BemSolver.solve_into: constants from the radius of this solve
+        for i in range(B * M):
+            c_tip[i] = 0.5 * c[0] * (c[1] - r[i]) / r[i]
+            c_hub[i] = 0.5 * c[0] * (r[i] - c[2]) / c[2]
     grid = floats[o_pol:o_pol + G]
     value = floats[o_pol + G:o_pol + G + 3 * PG].reshape((3, PG))
     slope = floats[o_pol + G + 3 * PG:o_pol + G + 6 * PG].reshape((3, PG))
     flags = ints[p:p + 7]
-    solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(), grid, value,
-                   slope, c[0], c[1], c[2], c[3], flags[0] != 0, flags[1] != 0, flags[2] != 0,
-                   flags[3] != 0, flags[4] != 0, flags[5] != 0, c[4], c[5], flags[6], out)
+    solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
+                   tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
+                   flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
+                   c[4], c[5], flags[6], out)
     T = floats[o_T:o_T + N * M].reshape((N, M))
-    distribute(out[9].reshape((B, M)), out[10].reshape((B, M)), en, et, T, forces)
+    fn = out[9].reshape((B, M))
+    ft = out[10].reshape((B, M))
+    distribute(fn, ft, en, et, T, forces)
+    if ne_el > 0:
+        D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
+        elastic_correction(fn, ft, en, et, R, blades, D, elastic, gen)
     for b in range(B):
         s = starts[b]
         for i in range(N):
@@ -177,7 +216,7 @@ def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, sta
             wind_params(floats[ints[a]:ints[a] + 9 * n].reshape((n, 9)), floats[ints[a + 2]],
                         floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
         elif kind == AERO:
-            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
+            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen)
         elif kind == TOWER_DRAG:
             _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
         else:
