@@ -10,7 +10,7 @@ while the engine compiles on first use.
   ETA ..." on stderr, refreshed about once per wall second by the
   integrator's `progress` hook, shown once a run has taken more than
   `after_s` seconds (short runs print nothing).
-- `compile_notice`: "compiling the engine (first run only, ~1-2 min)..." when
+- `compile_notice`: "compiling the engine (first run only, ~1-2 min)..." on a terminal when
   the numba cache of the engine's kernel holds no index file yet.
 """
 from __future__ import annotations
@@ -58,10 +58,16 @@ def engine_is_cold() -> bool:
 
 
 def compile_notice(stream=None, quiet: bool = False) -> bool:
-    """Print `COMPILE_MESSAGE` on stderr when the engine is cold; True if printed."""
+    """Print `COMPILE_MESSAGE` when the engine is cold; True if printed. On
+    stderr only when it is a terminal (a person waiting), as the progress bar:
+    scripts and logs read one line per error."""
     if quiet or not engine_is_cold():
         return False
-    print(COMPILE_MESSAGE, file=stream or sys.stderr, flush=True)
+    if stream is None:
+        if not sys.stderr.isatty():
+            return False
+        stream = sys.stderr
+    print(COMPILE_MESSAGE, file=stream, flush=True)
     return True
 
 
