@@ -232,6 +232,19 @@ def kinematics(q, qd, data, work):
 
 # ------------------------------------------------------------- body contributions
 @njit(cache=True)
+def _rotate_tensor(R, body_frame, out):
+    """out = R T R^T for the 3x3 tensor T stored row by row in `body_frame`
+    (9 floats): a body-frame inertia expressed in the ground frame."""
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                for l in range(3):
+                    s += R[i, k] * body_frame[3 * k + l] * R[j, l]
+            out[i, j] = s
+
+
+@njit(cache=True)
 def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     """Generalised mass Mb and force fy of a rigid body in y = [v; w] of its
     origin (inertial axes): eq. 6-7 with J_vG = J_v - [p~] J_w expanded."""
@@ -243,13 +256,7 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     p, fG, Iw, Ial = v_scr[0], v_scr[1], v_scr[2], v_scr[3]
     Ig = work[11][0]
     _mv(R, bf[b, CM:CM + 3], p)
-    for i in range(3):
-        for j in range(3):
-            s = 0.0
-            for k in range(3):
-                for l in range(3):
-                    s += R[i, k] * bf[b, INERTIA + 3 * k + l] * R[j, l]
-            Ig[i, j] = s
+    _rotate_tensor(R, bf[b, INERTIA:INERTIA + 9], Ig)
     x = _cross(w[0], w[1], w[2], p[0], p[1], p[2])
     wwp = _cross(w[0], w[1], w[2], x[0], x[1], x[2])
     alp = _cross(al[0], al[1], al[2], p[0], p[1], p[2])
@@ -276,13 +283,7 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     if bi[b, HAS_JP]:
         # node polar inertia of flexible bodies without elastic DOFs,
         # sum J_p e_g e_g^T, with t = [0, e_g] (eq. A): no gyroscopic term
-        for i in range(3):
-            for j in range(3):
-                x = 0.0
-                for k in range(3):
-                    for l in range(3):
-                        x += R[i, k] * bf[b, POLAR + 3 * k + l] * R[j, l]
-                Ig[i, j] = x
+        _rotate_tensor(R, bf[b, POLAR:POLAR + 9], Ig)
         for i in range(3):
             for j in range(3):
                 Mb[3 + i, 3 + j] += Ig[i, j]
