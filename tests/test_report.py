@@ -11,7 +11,7 @@ import pytest
 
 import modesel.study.search.engine
 from modesel.cli import main
-from test_search import FAKE_ENGINE, make_study
+from test_search import FAKE_ENGINE, make_study, run_fake_study
 
 
 def read_table(path) -> pd.DataFrame:
@@ -27,15 +27,7 @@ def fake_engine(monkeypatch):
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
     """One `modesel run` of 25 sets, shared by the read-only tests."""
-    folder = tmp_path_factory.mktemp("run")
-    study = make_study(folder, n_trials=25)
-    mp = pytest.MonkeyPatch()
-    mp.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
-    try:
-        assert main(["run", str(study), "--out", str(folder / "out")]) == 0
-    finally:
-        mp.undo()
-    return folder / "out"
+    return run_fake_study(tmp_path_factory.mktemp("run"), 25)
 
 
 def test_trials_csv_is_ranked_with_the_documented_columns(finished):

@@ -13,11 +13,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import modesel.study.search.engine
 from modesel.cli import main
 from modesel.files import read_unit_csv
 from modesel.study import schema
-from test_search import FAKE_ENGINE, make_study
+from test_search import make_study, run_fake_study
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -29,15 +28,7 @@ def read_with_units(path):
 
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("units")
-    study = make_study(folder, n_trials=10)
-    mp = pytest.MonkeyPatch()
-    mp.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
-    try:
-        assert main(["run", str(study), "--out", str(folder / "out"), "--quiet"]) == 0
-    finally:
-        mp.undo()
-    return folder / "out"
+    return run_fake_study(tmp_path_factory.mktemp("units"), 10, "--quiet")
 
 
 def test_trials_and_pareto_csv_carry_units_and_rank(finished):

@@ -174,6 +174,20 @@ def make_study(folder: Path, *, tower_families='["test_exact", "test_rich"]', n_
     return path
 
 
+def run_fake_study(folder: Path, n_trials: int, *options: str) -> Path:
+    """`modesel run` of a `make_study` study with the fake engine; its output folder."""
+    import modesel.study.search.engine
+    from modesel.cli import main
+    study = make_study(folder, n_trials=n_trials)
+    mp = pytest.MonkeyPatch()
+    mp.setattr(modesel.study.search.engine, "default_engine", lambda: FAKE_ENGINE)
+    try:
+        assert main(["run", str(study), "--out", str(folder / "out"), *options]) == 0
+    finally:
+        mp.undo()
+    return folder / "out"
+
+
 def load(path: Path):
     return parse_study(path.read_text(), path)
 
