@@ -130,10 +130,8 @@ class Wind:
         rows = np.array([self.row(float(ti)) for ti in np.atleast_1d(t)])
         if t.ndim == 0:
             rows = rows[0]
-        vh, sv, lsv, gust = rows[..., 1], rows[..., 5], rows[..., 6], rows[..., 7]
-        zr, lr = self.reference_height, self.reference_length
-        ratio = np.where(z > 0, z, 1.0) / zr
-        v1 = vh * (ratio ** sv + lsv * (z - zr) / lr) + gust
+        v1 = horizontal_speed(z, 0.0, rows[..., 1], 0.0, rows[..., 5], rows[..., 6], rows[..., 7],
+                              self.reference_height, self.reference_length)
         return np.where(z > 0, v1, 0.0)
 
     def vector(self, z, t=0.0, x=0.0, y=0.0):
@@ -144,11 +142,19 @@ class Wind:
         x, y = np.broadcast_to(x, z.shape).astype(float), np.broadcast_to(y, z.shape).astype(float)
         vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = self.params(float(t))
         above = z > 0.0
-        ratio = np.where(above, z, zr) / zr
-        v1 = vh * (ratio ** shr_v + (shr_h * (y * ch + x * sh) + lin_v * (z - zr)) / lr) + gust
+        v1 = horizontal_speed(z, y * ch + x * sh, vh, shr_h, shr_v, lin_v, gust, zr, lr)
         v1r = cv * v1 - sv * vv
         out = np.stack([v1r * ch, -v1r * sh, sv * v1 + cv * vv], axis=-1)
         return np.where(above[..., None], out, 0.0)
+
+
+def horizontal_speed(z, lateral, vh, shr_h, shr_v, lin_v, gust, zr, lr):
+    """V1 [m/s] of the module doc (numpy, broadcast): heights z [m] above
+    ground (z <= 0 gives a finite placeholder; callers zero it), `lateral` =
+    y cos AngleH + x sin AngleH [m], the table's VelH, ShrH, ShrV, LinShrV,
+    VelGust, RefHt zr [m] and RefLength lr [m]."""
+    ratio = np.where(z > 0.0, z, zr) / zr
+    return vh * (ratio ** shr_v + (shr_h * lateral + lin_v * (z - zr)) / lr) + gust
 
 
 @njit(cache=True)
