@@ -42,6 +42,7 @@ import numpy as np
 from modesel.candidates.base import FieldContext
 from modesel.errors import unknown_name
 from modesel.modeset import FIELDS
+from modesel.vocabulary import is_blade_field
 
 NACELLE_ROLL_FRACTION = 0.25   # I_xx,cm / I_zz,cm of the nacelle (box, length ~2.5 x width)
 
@@ -53,7 +54,7 @@ def field_context(turbine, field: str, rotor_speed: float = 0.0) -> FieldContext
     common = dict(field=field, gravity=turbine.gravity, source=turbine.source,
                   elastodyn_coefficients=tuple(tuple(c) for c in
                                                turbine.elastodyn_shapes.get(field, ())))
-    if field.startswith("blade"):
+    if is_blade_field(field):
         return FieldContext(beam=turbine.blade, tip_mass=float(turbine.tip_mass[0]),
                             rotor_speed=float(rotor_speed), hub_radius=turbine.hub_radius,
                             precone=float(turbine.precone[0]), **common)

@@ -35,6 +35,7 @@ import numpy as np
 from modesel.candidates import beam_fem
 from modesel.candidates.base import BENDING_FIELDS, TORSION_FIELDS, Family, Parameter, register
 from modesel.errors import ModeselError
+from modesel.vocabulary import is_blade_field
 
 STIFFNESS = {"tower_fa": "ei_1", "tower_ss": "ei_2", "blade_flap": "ei_1", "blade_edge": "ei_2",
              "tower_torsion": "gj"}
@@ -73,7 +74,7 @@ class Fem(Family):
         self._cache = OrderedDict()
 
     def relevant_parameters(self, field):
-        if field.startswith("blade"):
+        if is_blade_field(field):
             return ("elements", "speed_factor")
         if field in TORSION_FIELDS:
             return ("elements",)
@@ -146,7 +147,7 @@ class Fem(Family):
 def _geometric_loads(context, span, mass, length, params):
     """Keyword arguments (axial_force, spin_softening) of `bending_matrices`."""
     mass = np.asarray(mass, dtype=float)
-    if context.field.startswith("blade"):
+    if is_blade_field(context.field):
         omega = params["speed_factor"] * context.rotor_speed
         if omega == 0.0:
             return {}

@@ -20,6 +20,7 @@ from modesel.errors import ModeselError, unknown_name
 from modesel.modeset import FIELDS
 from modesel.turbine.elastodyn import load_turbine
 from modesel.multibody.shape_integrals import shape_integrals
+from modesel.vocabulary import TOWER_FIELDS, is_blade_field
 
 FULL_MATRICES_UP_TO = 6   # the text table prints full matrices up to this many modes
 JSON_MATRICES = ("gravity_top_mass", "gravity_self_weight", "centrifugal_per_omega2", "gravity_axial_per_g")
@@ -75,7 +76,7 @@ def compute(turbine_name, field: str, family: str, count, params=None, rpm=0.0):
     context = field_context(turbine, field, rotor_speed=rpm * np.pi / 30.0)
     params = dict(params or {})
     checked = fam.shapes(np.linspace(0.0, 1.0, 5), count, context, **params)   # validate first
-    beam = turbine.tower if field.startswith("tower") else turbine.blade
+    beam = turbine.tower if field in TOWER_FIELDS else turbine.blade
     tuners = beam.stiffness_tuners.get(field) if family == "elastodyn" else None
     result = shape_integrals(
         beam, lambda x: fam.shapes(x, count, context, **params),
@@ -102,7 +103,7 @@ def frequencies_with_top_mass(result, top_mass: float):
 
 def boundary_conditions(result, top_mass: float) -> str:
     """What the printed frequencies assume, in words."""
-    if result.field.startswith("tower"):
+    if result.field in TOWER_FIELDS:
         text = "tower clamped at the base, free at the top"
         if top_mass > 0:
             text += (f"; 'freq' leaves the {top_mass:.6g} kg top mass out of the inertia (only its weight "
@@ -148,7 +149,7 @@ def run(args) -> int:
         return 0
     print(f"{result.field}: {result.count} x {result.family} on {turbine.source}")
     print(f"  length {result.length:.4g} m, top mass {context.tip_mass:.6g} kg, gravity "
-          f"{turbine.gravity:g} m/s^2" + (f", rotor speed {rpm:g} rpm" if result.field.startswith("blade") else ""))
+          f"{turbine.gravity:g} m/s^2" + (f", rotor speed {rpm:g} rpm" if is_blade_field(result.field) else ""))
     print(f"  mass-matrix condition number {result.condition_number:.3e}"
           + (" (basis mass-orthonormalised)" if result.orthonormalised else ""))
     with_top = frequencies_with_top_mass(result, context.tip_mass)

@@ -49,6 +49,7 @@ from modesel.export.common import stations, write_text
 from modesel.export.polyfit import PolynomialFit, fit_mode_polynomial
 from modesel.modeset import FIELDS
 from modesel.turbine.elastodyn import Deck, has_label, read_deck, referenced_file
+from modesel.vocabulary import TOWER_FIELDS
 
 # field -> ElastoDyn mode slots: (file branch, coefficient key, DOF flag, modal stiffness tuner)
 ELASTODYN_MODES = {
@@ -269,7 +270,7 @@ def export_elastodyn(modeset, shapes: dict, turbine, outdir, *, weighting: str =
             continue
         slots = ELASTODYN_MODES[name]
         sampled = fs.sample(x)
-        beam = turbine.tower if name.startswith("tower") else turbine.blade
+        beam = turbine.tower if name in TOWER_FIELDS else turbine.blade
         mass = np.interp(x * beam.length, beam.span, beam.mass) if weighting == "mass" else None
         for k, (branch, key, dof, tuner) in enumerate(slots):
             if k >= fs.count:

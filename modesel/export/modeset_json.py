@@ -30,6 +30,7 @@ import numpy as np
 
 from modesel.export.common import stations, write_text
 from modesel.multibody.shape_integrals import ILL_CONDITIONED, shape_integrals
+from modesel.vocabulary import TOWER_FIELDS
 
 FORMAT = "modesel-modeset-export/1"
 
@@ -56,7 +57,7 @@ def field_record(fs, turbine) -> dict:
     x = stations()
     sampled = fs.sample(x)
     ctx = fs.context
-    beam = turbine.tower if fs.field.startswith("tower") else turbine.blade
+    beam = turbine.tower if fs.field in TOWER_FIELDS else turbine.blade
     tuners = beam.stiffness_tuners.get(fs.field) if fs.family == "elastodyn" else None
     integrals = shape_integrals(beam, fs.sample, top_mass=ctx.tip_mass, gravity=turbine.gravity,
                                 rotor_speed=ctx.rotor_speed, precone=ctx.precone,

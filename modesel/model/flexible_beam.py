@@ -198,7 +198,6 @@ def build_flexible_body(name: str, joint: Joint, beam, fields: list, *, shorteni
     D = np.zeros((ne, ne))
     Mfield = np.zeros((ne, ne))
     tip = {"displacement": {}, "slope_y": {}, "slope_x": {}, "twist": {}}
-    slopes_fine = np.zeros((0, 3, 0))
     col = 0
     fine_blocks = []
     for fs in fields:

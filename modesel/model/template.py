@@ -69,9 +69,9 @@ from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_fle
                                          twist_correction)
 from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
 from modesel.multibody.system import System
-from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION,
-                                TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, TOWER_FIELDS,
-                                field_dofs, is_blade_field, root_reaction)
+from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION, TOWER_BASE_REACTION,
+                                TOWER_BASE_REACTION_X, TOWER_FIELDS, field_dofs, is_blade_body, is_blade_field,
+                                root_reaction)
 
 DRIVETRAINS = ("elastodyn", "two_spring")
 FINE_POINTS = 801            # grid for the axial-shortening integrals
@@ -155,15 +155,15 @@ class TurbineModel:
         and the tip (the tip shortening matrix)."""
         b = self.system.body(body)
         t = self.turbine
-        beam = t.blade if body.startswith("blade") else t.tower
+        beam = t.blade if is_blade_body(body) else t.tower
         L = beam.length
         span = np.clip(np.asarray(span, float), 0.0, L)
         s0 = np.zeros((len(span), 3))
-        s0[:, 2] = span + (0.0 if body.startswith("blade") else beam.root_offset)
+        s0[:, 2] = span + (0.0 if is_blade_body(body) else beam.root_offset)
         ne = b.n_elastic
         Phi = np.zeros((len(span), 3, ne))
         col = 0
-        for fld in (self.blade_fields if body.startswith("blade") else
+        for fld in (self.blade_fields if is_blade_body(body) else
                     [f for f in TOWER_FIELDS if f in self.field_dofs]):
             k = self.modeset[fld].count
             if fld != "tower_torsion":

@@ -145,15 +145,13 @@ def openfast_modes(lins):
     lins = [lins] if isinstance(lins, OpenFastLinearization) else list(lins)
     first = lins[0]
     n = len(first.names)
-    groups = {}
-    for i, name in enumerate(first.names):
-        if name[0] == "B" and name[1].isdigit():
-            groups.setdefault(name[2:], [None] * 3)[int(name[1]) - 1] = i
-    mbc = len(groups) > 0 and all(None not in g for g in groups.values())
+    groups = blade_groups(first.names, 3)              # the same rule as modesel's own modes
+    mbc = groups is not None and all(None not in g for g in groups.values())
     names = list(first.names)
     if mbc:
         for key, idx in groups.items():
-            names[idx[0]], names[idx[1]], names[idx[2]] = f"{key}_coll", f"{key}_cos", f"{key}_sin"
+            for i, part in zip(idx, MULTIBLADE_PARTS):
+                names[i] = multiblade_name(key, part)
     A_nr = np.zeros((2 * n, 2 * n))
     for lin in lins:
         if lin.names != first.names:

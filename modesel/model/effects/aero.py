@@ -327,7 +327,7 @@ def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
     their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
     line = np.asarray(line, float)
-    M, ne = len(line), phi.shape[2]
+    M = len(line)
     idx = np.flatnonzero(structural)
     node_pos = np.zeros((len(idx), 3))
     node_pos[:, 2] = np.asarray(nodes, float)[idx]

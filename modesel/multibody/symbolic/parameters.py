@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
+from modesel.vocabulary import is_blade_body
+
 # body letters (first paper section 4.2); other bodies keep their own name
 BODY_LABELS = {"tower": "T", "nacelle": "N", "hub": "R", "generator": "Gen", "platform": "F"}
 # small-angle groups (see approximations.small_angle): which parameters may be expanded
@@ -32,7 +34,7 @@ def body_label(name: str) -> str:
     """Short label of a body: T, N, R, F, Gen, B (blades share B)."""
     if name in BODY_LABELS:
         return BODY_LABELS[name]
-    if name.startswith("blade"):
+    if is_blade_body(name):
         return "B"
     return name
 
