@@ -392,3 +392,60 @@ def test_export_takes_the_turbine_from_the_study(tmp_path, capsys):
     no_scene = write_modeset(tmp_path / "ms.json", {"tower_fa": {"family": "clamped", "count": 1}})
     assert main(["export", no_scene, "--elastodyn", str(tmp_path / "ed2")]) == 2
     assert "no turbine: give --turbine DECK" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- ElastoDyn frequencies
+def test_elastodyn_frequency_of_a_uniform_cantilever_is_the_analytic_one():
+    """Midpoint rule on many nodes -> (1.8751^2 / 2 pi) sqrt(EI / (m L^4)) for the exact first mode."""
+    from types import SimpleNamespace
+
+    from modesel.export.elastodyn_writer import elastodyn_frequency
+    L, m, EI, b = 30.0, 120.0, 4.0e8, 1.8751040687
+    beam = SimpleNamespace(length=L, span=np.array([0.0, L]), mass=np.full(2, m), ei_1=np.full(2, EI),
+                           ei_2=np.full(2, 2 * EI))
+    sigma = (np.cosh(b) + np.cos(b)) / (np.sinh(b) + np.sin(b))
+
+    def clamped(x, derivative):
+        if derivative == 0:
+            return np.cosh(b * x) - np.cos(b * x) - sigma * (np.sinh(b * x) - np.sin(b * x))
+        return b ** 2 * (np.cosh(b * x) + np.cos(b * x) - sigma * (np.sinh(b * x) + np.sin(b * x)))
+    exact = b ** 2 / (2 * np.pi) * np.sqrt(EI / (m * L ** 4))
+    assert elastodyn_frequency(beam, "blade_flap", 4000, clamped) == pytest.approx(exact, rel=1e-6)
+    assert elastodyn_frequency(beam, "blade_edge", 4000, clamped) == pytest.approx(exact * np.sqrt(2), rel=1e-6)
+
+
+def test_fem_flap_export_reports_the_frequency_no_polynomial_reaches(tmp_path):
+    """fem flap 1 of the NREL 5-MW blade: the written polynomial's ElastoDyn frequency (from the
+    coefficients read back by openfast-io) is the reported one, above the shape's; no polynomial in
+    x^2..x^6 reaches the shape's frequency (lowest Ritz value of that space on the 17 nodes), so the
+    warning is the fit's limit, not its method. The exported set names what OpenFAST runs."""
+    from scipy.linalg import eigh
+
+    from modesel.export.elastodyn_writer import elastodyn_frequency
+    from modesel.model.flexible_beam import elastodyn_nodes
+    from modesel.turbine.elastodyn import load_turbine
+    ms = ModeSet.from_dict({"fields": {"blade_flap": {"family": "fem", "count": 2},
+                                       "tower_fa": {"family": "clamped", "count": 1}}})
+    report, _ = export_modeset(ms, DECK, elastodyn_dir=tmp_path)
+    flap1 = next(m for m in report.modes if (m.field, m.mode) == ("blade_flap", 1))
+    blade = load_turbine(DECK).blade
+    written = np.array(read_back(tmp_path, DECK.stem)["blade"]["BldFl1Sh"], float)
+    assert elastodyn_frequency(blade, "blade_flap", 17, lambda x, d: evaluate_polynomial(written, x, d)) == \
+        pytest.approx(flap1.frequency_fit_hz, rel=1e-6)
+    s, w = elastodyn_nodes(blade.length, 17)
+    x = s / blade.length
+    p = np.arange(2, 7)
+    d0 = np.stack([x ** k for k in p])
+    d2 = np.stack([k * (k - 1) * x ** (k - 2) for k in p]) / blade.length ** 2
+    K = (d2 * np.interp(s, blade.span, blade.ei_1) * w) @ d2.T
+    M = (d0 * np.interp(s, blade.span, blade.mass) * w) @ d0.T
+    lowest = np.sqrt(eigh(K, M, eigvals_only=True)[0]) / (2 * np.pi)
+    # measured: shape 0.6727 Hz, lowest polynomial +0.36 %, the L2 fit +0.59 %
+    assert flap1.frequency_shape_hz * 1.003 < lowest <= flap1.frequency_fit_hz
+    assert any(w.startswith("blade_flap mode 1 (fem)") and "+0.5" in w for w in report.warnings)
+    tower = next(m for m in report.modes if m.field == "tower_fa")
+    assert abs(tower.frequency_change) < 1e-4 and not any(w.startswith("tower_fa") for w in report.warnings)
+    exported = json.loads(Path(report.modeset_file).read_text())
+    assert exported["fields"] == {"tower_fa": {"family": "elastodyn", "count": 1},
+                                  "blade_flap": {"family": "elastodyn", "count": 2}}
+    assert ModeSet.from_json(report.modeset_file)["blade_flap"].count == 2
