@@ -289,11 +289,11 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     beams without structural damping (D_e = 0). min_nodes: quadrature nodes
     per beam, raised to NODES_PER_MODE per mode for many modes.
     structural_twist: blade shapes turn with the structural twist (module
-    doc). elastodyn_nodes: a beam whose fields all use the deck's own
-    polynomials (family `elastodyn`) is integrated on the deck's analysis
-    nodes (TwrNodes, BldNodes) with ElastoDyn's midpoint rule, discrete
-    twisted shapes and axial-shortening sums (`_elastodyn_discrete`), i.e.
-    the discrete model OpenFAST solves, instead of the converged quadrature.
+    doc). elastodyn_nodes: a beam with a field (any family) is integrated on
+    the deck's analysis nodes (TwrNodes, BldNodes) with ElastoDyn's midpoint
+    rule, discrete twisted shapes and axial-shortening sums
+    (`_elastodyn_discrete`), i.e. the discrete model OpenFAST solves for
+    those shapes, instead of the converged quadrature.
     Units SI.
     """
     fixed = dict(fixed or {})
