@@ -323,13 +323,15 @@ def export_elastodyn(modeset, shapes: dict, turbine, outdir, *, weighting: str =
         beam = turbine.tower if name in TOWER_FIELDS else turbine.blade
         nodes = getattr(turbine, "tower_nodes" if name in TOWER_FIELDS else "blade_nodes", None)
         mass = np.interp(x * beam.length, beam.span, beam.mass) if weighting == "mass" else None
+        ei = beam.ei_1 if name in ("tower_fa", "blade_flap") else beam.ei_2
+        stiffness = np.interp(x * beam.length, beam.span, ei) if weighting == "stiffness" else None
         for k, (branch, key, dof, tuner) in enumerate(slots):
             if k >= fs.count:
                 ed[dof] = False
                 report.disabled.append((name, k + 1, key, dof))
                 continue
             fit = fit_mode_polynomial(x, sampled.phi[k], ddphi=sampled.ddphi[k], weighting=weighting,
-                                      mass=mass, field=f"{name} mode {k + 1}")
+                                      mass=mass, stiffness=stiffness, field=f"{name} mode {k + 1}")
             for values in branches[branch]:
                 values[key] = [float(c) for c in fit.coefficients]
             ed[dof] = True
