@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 from modesel.commands._common import atomic_write_text, load_modeset
 from modesel.errors import ModeselError
@@ -40,13 +41,15 @@ def _parse_rpm(text):
 
 def run(args) -> int:
     from modesel.simulation.api import linearize_scene, load_scene
-    from modesel.study.report import mode_kind
+    from modesel.study.report import aero_at_rest_warning, mode_kind
     scene = load_scene(args.scene)
     ms = load_modeset(args.modeset)
     if args.plot and not args.rpm:
         raise ModeselError("a Campbell diagram needs rotor speeds: add --rpm, e.g. --rpm 0,6,12.1",
                            field="--plot")
     speeds = _parse_rpm(args.rpm) if args.rpm else [None]
+    if warning := aero_at_rest_warning(scene, speeds):
+        print(f"modesel: warning: {scene.name}: {warning}", file=sys.stderr)
     results, sweep = [], []
     for rpm in speeds:
         modes, _ = linearize_scene(scene, ms, rpm=rpm)

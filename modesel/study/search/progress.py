@@ -21,6 +21,8 @@ import sys
 import time
 from pathlib import Path
 
+#: wall seconds between redraws of the search bar while a trial runs
+REFRESH_S = 1.0
 COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
 #: modules whose @njit(cache=True) functions are compiled on first use
 COMPILED_MODULES = ("modesel.multibody.kernel", "modesel.aero.bem")
@@ -100,12 +102,27 @@ class Progress:
         self.bar = None
         self.done = 0
         compile_notice(quiet=quiet)
+        self._stop = None
         if enabled:
+            import shutil
+            import threading
+
             from tqdm import tqdm
-            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True,
+            # narrower than the terminal: a "^C" echoed after the bar must not wrap the line,
+            # or clearing it would clear the wrapped remainder and leave the bar standing
+            width = max(40, min(shutil.get_terminal_size().columns - 3, 140))
+            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True, ncols=width,
                             bar_format="{desc}: {n_fmt}/{total_fmt} trials |{bar}| "
                                        "[{elapsed} elapsed, ETA {remaining}]{postfix}")
             self.bar.set_postfix_str("best error -, 0 failed")
+            # redraw every REFRESH_S while a trial runs: the elapsed time moves on (a trial can take minutes)
+            self._stop = threading.Event()
+            threading.Thread(target=self._tick, args=(self.bar, self._stop), daemon=True).start()
+
+    @staticmethod
+    def _tick(bar, stop):
+        while not stop.wait(REFRESH_S):
+            bar.refresh()
 
     @staticmethod
     def postfix(best: float | None, failed: int) -> str:
@@ -119,9 +136,24 @@ class Progress:
         self.done = max(self.done, done)
         self.bar.set_postfix_str(self.postfix(best, failed))
 
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
+    def close(self, clear: bool = False):
+        """End the bar. A run that stopped before its budget (tolerance met,
+        space exhausted, repeats) shows done/done and says so, with no ETA
+        left standing; `clear` (an error or an interrupt follows) removes the
+        bar, so that the one-line message stands alone."""
+        if self.bar is None:
+            return
+        self._stop.set()
+        if clear:
+            self.bar.leave = False
+        elif self.bar.n < self.bar.total:
+            self.bar.total = self.bar.n
+            self.bar.set_postfix_str(f"{self.bar.postfix}, stopped before the budget", refresh=False)
+        self.bar.close()
+        if clear:       # also the "^C" the terminal echoed after the bar
+            self.bar.fp.write("\r\x1b[K")
+            self.bar.fp.flush()
+        self.bar = None
 
 
 def counts(opt, since: int, criterion):
