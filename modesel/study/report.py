@@ -522,7 +522,19 @@ def campbell_figure(sweep, title: str = "") -> str:
         ax.plot([0, top], [0, k * top / 60.0], color="0.5", lw=0.8, ls="-.")
         x_end = min(top, 1.1 * fmax * 60.0 / k)
         ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4", ha="left", va="bottom")
-    ax.set_ylim(0, 1.1 * fmax)
+    # the axis reaches 3 times the 6P line at the top speed: modes far above the rotor
+    # harmonics (e.g. a second edge collective at 10 Hz) would squash the ones that matter
+    limit = max(3.0 * max(CAMPBELL_HARMONICS) * top / 60.0, 1e-9)
+    shown = [f for pts in curves.values() for _, f in pts if f <= limit]
+    limit = 1.1 * (max(shown) if shown else fmax)
+    ax.set_ylim(0, limit)
+    above = sorted({f"{base} {kind}".strip() for (base, kind), pts in curves.items()
+                    if min(f for _, f in pts) > limit and not kind.startswith("blade ")}
+                   | {f"{base} of each blade" for (base, kind), pts in curves.items()
+                      if min(f for _, f in pts) > limit and kind.startswith("blade ")})
+    if above:
+        ax.annotate("above the axis: " + ", ".join(above), (0.01, 0.99), xycoords="axes fraction",
+                    fontsize=7, va="top", color="0.3")
     ax.set_xlabel("rotor speed [rpm]")
     ax.set_ylabel("frequency [Hz]")
     if title:
