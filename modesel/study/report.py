@@ -592,6 +592,7 @@ h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:2e
 table{border-collapse:collapse;font-size:0.8em;max-width:100%}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;vertical-align:top}
 td.l,th.l{text-align:left}td.wrap{max-width:28em;overflow-wrap:anywhere;white-space:normal}
+td.set{overflow-wrap:normal}
 th{background:#f0f0f0}tr.fail td{background:#fff3f0}
 .answer{font-size:1.1em;background:#eef6ee;padding:0.6em}
 .note{color:#555;font-size:0.9em}.warn{color:#a40}svg{max-width:100%;height:auto;display:block}
@@ -620,13 +621,15 @@ def _fmt(v) -> str:
 
 
 def _table(df: pd.DataFrame, columns, left=(), headers=None, percent=(), wrap=()) -> str:
-    """An HTML table in its own horizontally scrolling box; `percent` columns
+    """An HTML table in its own horizontally scrolling box (the mode-set
+    column wraps between fields, never inside "family:count"); `percent` columns
     (fractions) shown in %; a failed row (status FAIL) is marked and its
     empty numeric cells say 'failed'."""
     headers = headers or {}
 
     def cls(c):
-        return " ".join(x for x in ("l" if c in left else "", "wrap" if c in wrap else "") if x)
+        return " ".join(x for x in ("l" if c in left else "", "wrap" if c in wrap else "",
+                                    "set" if c == "modeset" else "") if x)
 
     head = "".join(f"<th class='{cls(c)}'>{_e(headers.get(c, c))}</th>" for c in columns)
     rows = []

@@ -138,8 +138,8 @@ class Progress:
 
     def close(self, clear: bool = False):
         """End the bar. A run that stopped before its budget (tolerance met,
-        space exhausted, repeats) shows done/done and says so, with no ETA
-        left standing; `clear` (an error or an interrupt follows) removes the
+        space exhausted, repeats) shows done/done and "stopped early" in place
+        of the ETA; `clear` (an error or an interrupt follows) removes the
         bar, so that the one-line message stands alone."""
         if self.bar is None:
             return
@@ -147,8 +147,8 @@ class Progress:
         if clear:
             self.bar.leave = False
         elif self.bar.n < self.bar.total:
-            self.bar.total = self.bar.n
-            self.bar.set_postfix_str(f"{self.bar.postfix}, stopped before the budget", refresh=False)
+            self.bar.total = self.bar.n         # the ETA field says why instead (same width: never cut)
+            self.bar.bar_format = self.bar.bar_format.replace("ETA {remaining}", "stopped early")
         self.bar.close()
         if clear:       # also the "^C" the terminal echoed after the bar
             self.bar.fp.write("\r\x1b[K")
@@ -171,7 +171,10 @@ def counts(opt, since: int, criterion):
 class SimulationProgress:
     """`progress(t, tmax)` hook of a simulation: after `after_s` wall seconds,
     rewrites one stderr line at most once per `every_s` wall seconds:
-    "simulated 4.3 of 20 s, 0.21x real time, ETA 1 min 15 s"."""
+    "simulated 4.3 of 20 s, 0.21x real time, ETA 1 min 15 s". The speed and
+    ETA count from the hook's first call (the start of the integration, not
+    the model set-up before it); `close` erases the line (the command's
+    summary follows)."""
 
     def __init__(self, label: str = "", stream=None, after_s: float = 2.0, every_s: float = 1.0,
                  enabled: bool | None = None):
@@ -180,10 +183,12 @@ class SimulationProgress:
         self.label = label
         self.after_s, self.every_s = after_s, every_s
         self.start = time.perf_counter()
+        self.first = None           # wall clock at the first call (the integration starts at t = 0)
         self.last = -1e9
         self.shown = False
 
     def line(self, t: float, tmax: float, wall: float) -> str:
+        """The line after `wall` seconds of integration that simulated `t` of `tmax` s."""
         rate = t / wall if wall > 0 else 0.0
         eta = _duration((tmax - t) / rate) if rate > 0 else "-"
         return (f"{self.label}simulated {t:.3g} of {tmax:.3g} s, {speed_text(t, wall)}, "
@@ -193,13 +198,14 @@ class SimulationProgress:
         if not self.enabled:
             return
         now = time.perf_counter()
-        wall = now - self.start
-        if wall < self.after_s or now - self.last < self.every_s:
+        if self.first is None:
+            self.first = now
+        if now - self.start < self.after_s or now - self.last < self.every_s:
             return
         self.last = now
         self.shown = True
-        print("\r" + self.line(t, tmax, wall).ljust(70), end="", file=self.stream, flush=True)
+        print("\r" + self.line(t, tmax, now - self.first) + "\x1b[K", end="", file=self.stream, flush=True)
 
     def close(self) -> None:
         if self.shown:
-            print(file=self.stream, flush=True)
+            print("\r\x1b[K", end="", file=self.stream, flush=True)
