@@ -59,3 +59,9 @@ def test_linearize_warns_about_aerodynamics_at_rest(capsys):
     assert main(["linearize", str(scene), "--rpm", "0"]) == 0
     assert "at 0 rpm the rotor has no tangential inflow" in capsys.readouterr().err
     assert report.aero_at_rest_warning(load_scene(scene), [6.0]) is None
+    # --no-aero: the structure, as the report's diagram; every mode there at rest, no warning
+    import json
+    assert main(["linearize", str(scene), "--rpm", "0", "--no-aero", "--json"]) == 0
+    captured = capsys.readouterr()
+    labels = {m["label"] for m in json.loads(captured.out)["campbell"][0]["modes"]}
+    assert {"TFA1", "DrTr", "E1_coll"} <= labels and "warning" not in captured.err

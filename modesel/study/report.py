@@ -452,7 +452,7 @@ def aero_at_rest_warning(scene, rpms) -> str | None:
         return None
     return ("at 0 rpm the rotor has no tangential inflow, where the BEM switches induction off: its "
             "loads are not differentiable there and the 0 rpm modes with aerodynamics are not "
-            "meaningful (set aero = false, or use a small speed)")
+            "meaningful (add --no-aero for the structure only, or use a small speed)")
 
 
 def campbell_sweep(scene, modeset, rpms) -> list:
@@ -518,16 +518,17 @@ def campbell_figure(sweep, title: str = "") -> str:
     rpms = [r for r, _ in sweep]
     top = max(rpms) if rpms else 1.0
     fmax = max((f for pts in curves.values() for _, f in pts), default=1.0)
-    for k in CAMPBELL_HARMONICS:
-        ax.plot([0, top], [0, k * top / 60.0], color="0.5", lw=0.8, ls="-.")
-        x_end = min(top, 1.1 * fmax * 60.0 / k)
-        ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4", ha="left", va="bottom")
     # the axis reaches 3 times the 6P line at the top speed: modes far above the rotor
     # harmonics (e.g. a second edge collective at 10 Hz) would squash the ones that matter
     limit = max(3.0 * max(CAMPBELL_HARMONICS) * top / 60.0, 1e-9)
     shown = [f for pts in curves.values() for _, f in pts if f <= limit]
     limit = 1.1 * (max(shown) if shown else fmax)
     ax.set_ylim(0, limit)
+    for k in CAMPBELL_HARMONICS:
+        ax.plot([0, top], [0, k * top / 60.0], color="0.5", lw=0.8, ls="-.")
+        x_end = min(top, 0.92 * limit * 60.0 / k)        # label inside the axes, where the line leaves it
+        ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4",
+                    ha="left" if x_end < top else "right", va="bottom")
     above = sorted({f"{base} {kind}".strip() for (base, kind), pts in curves.items()
                     if min(f for _, f in pts) > limit and not kind.startswith("blade ")}
                    | {f"{base} of each blade" for (base, kind), pts in curves.items()
