@@ -274,7 +274,7 @@ def test_report_lists_what_ran_and_draws_every_blade(finished, tmp_path):
     ran = page[page.index("<h2>What ran</h2>"):page.index("<h2>Accuracy versus cost</h2>")]
     dofs = api.simulate(scene, chosen, tmax=0.1).dof_names
     assert ", ".join(dofs) in ran and f"<td class=''>{len(dofs)}</td>" in ran
-    from modesel.commands.simulate import effects_in_scene
+    from modesel.model.effects import effects_in_scene
     on, flags, _ = effects_in_scene(scene, dofs)
     assert f">{', '.join(on) or 'none'}</td><td class='l wrap'>{', '.join(flags)}</td>" in ran
     series = page[page.index("<h2>Time series</h2>"):page.index("<h2>Error of the chosen")]

@@ -382,9 +382,9 @@ def chosen_runs(study, chosen: ModeSet | None, engine, notes: list) -> dict:
 def what_ran(runs: dict) -> list[dict]:
     """Per scene of `runs` (`chosen_runs`): the DOFs, the effects evaluated,
     the system flags and the warnings about inert settings, as `modesel
-    simulate` prints them (`commands.simulate.effects_in_scene`, the
+    simulate` prints them (`model.effects.effects_in_scene`, the
     selection of `modesel.model.effects.select`)."""
-    from modesel.commands.simulate import effects_in_scene
+    from modesel.model.effects import effects_in_scene
     rows = []
     for name, (scene, result) in runs.items():
         dofs = list(getattr(result, "dof_names", None) or [])
