@@ -1,0 +1,125 @@
+"""Further OpenFAST 5.0 cases of the NREL 5-MW, not among the three shared
+runs (tests/data/openfast_more/README.md: decks + reduced references),
+simulated from their own .fst with the deck's modes and held to issue 10's
+tolerances:
+
+- rotating_release: no aero, rotor at 12.1 rpm (GenDOF off, drivetrain
+  free), blades and tower released from a deflected state: NRMSE over the
+  30 s <= 1 % on the tower-top and tip deflections (the parked release's
+  tolerance), <= 2 % on RotSpeed;
+- wind_step_shear (slow): uniform wind file, 8 -> 11 m/s at t = 30-31 s
+  with power-law shear 0.2 from the file's column, and fixed_pitch_15
+  (slow): steady 15 m/s with the pitch held at 10 deg, the rotor in region
+  3 (this case fails without AeroDyn's elastic section twist: RotSpeed
+  +0.32 %, std OoPDefl1 +12.5 %, NRMSE RotSpeed 6.45 %): means over the last
+  30 s (RotSpeed 0.3 %, GenPwr/RtAeroFxh/TTDspFA/OoPDefl1 1 %, IPDefl1
+  3 %), standard deviation of OoPDefl1/IPDefl1 within 10 %, NRMSE over the
+  whole 80 s <= 2 % (RotSpeed, TTDspFA, OoPDefl1, IPDefl1);
+- with the OpenFAST executable present (slow): the committed decks give the
+  committed reference again.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from modesel.simulation.api import load_scene, simulate
+from modesel.turbine.openfast_output import read_openfast_output
+
+REPO = Path(__file__).resolve().parent.parent
+DATA = REPO / "tests" / "data" / "openfast_more"
+
+#: issue 10: relative tolerances of the means over the last 30 s
+MEAN_TOLERANCES = {"RotSpeed": 0.003, "GenPwr": 0.01, "RtAeroFxh": 0.01, "TTDspFA": 0.01, "OoPDefl1": 0.01,
+                   "IPDefl1": 0.03}
+STD_TOLERANCE = 0.10
+NRMSE_TOLERANCE = 0.02
+RELEASE_TOLERANCE = 0.01
+RELEASE_CHANNELS = ("TTDspFA", "TTDspSS", "OoPDefl1", "OoPDefl2", "OoPDefl3", "IPDefl1", "IPDefl2", "IPDefl3")
+
+
+def reference(case: str) -> pd.DataFrame:
+    """The reduced OpenFAST reference (name row + unit row)."""
+    frame = pd.read_csv(DATA / case / f"{case}_reference.csv", header=[0, 1])
+    return frame.droplevel(1, axis=1)
+
+
+def nrmse(out, ref, channel) -> float:
+    """RMS of (modesel - OpenFAST) over the whole run / range of OpenFAST's channel."""
+    mine = np.interp(ref.Time, out.Time, out[channel])
+    r = ref[channel].to_numpy()
+    return float(np.sqrt(np.mean((mine - r) ** 2)) / np.ptp(r))
+
+
+_RUNS = {}
+
+
+def run(case):
+    if case not in _RUNS:
+        _RUNS[case] = simulate(load_scene(DATA / case / f"{case}.fst")).outputs
+    return _RUNS[case], reference(case)
+
+
+def test_rotating_release_matches_openfast():
+    out, ref = run("rotating_release")
+    assert out.Time.iloc[-1] == pytest.approx(30.0)
+    res = {c: nrmse(out, ref, c) for c in RELEASE_CHANNELS + ("RotSpeed",)}
+    text = ", ".join(f"{c} {v:.3%}" for c, v in res.items())
+    print(f"\nrotating_release NRMSE: {text}")
+    assert all(res[c] <= RELEASE_TOLERANCE for c in RELEASE_CHANNELS), text
+    assert res["RotSpeed"] <= NRMSE_TOLERANCE, text
+    # the rotor turns: about 6 revolutions in 30 s, as OpenFAST's
+    assert out.RotSpeed.mean() == pytest.approx(ref.RotSpeed.mean(), rel=1e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["wind_step_shear", "fixed_pitch_15"])
+def test_turbine_in_wind_matches_openfast(case):
+    out, ref = run(case)
+    tmax = float(ref.Time.iloc[-1])
+    assert out.Time.iloc[-1] == pytest.approx(tmax)
+    a, b = (f[f.Time >= tmax - 30.0 - 1e-9] for f in (out, ref))
+    means = {c: a[c].mean() / b[c].mean() - 1 for c in MEAN_TOLERANCES}
+    stds = {c: a[c].std() / b[c].std() - 1 for c in ("OoPDefl1", "IPDefl1")}
+    errs = {c: nrmse(out, ref, c) for c in ("RotSpeed", "TTDspFA", "OoPDefl1", "IPDefl1")}
+    text = (", ".join(f"mean {c} {v:+.2%}" for c, v in means.items()) + "; "
+            + ", ".join(f"std {c} {v:+.1%}" for c, v in stds.items()) + "; "
+            + ", ".join(f"NRMSE {c} {v:.2%}" for c, v in errs.items()))
+    print(f"\n{case}: {text}")
+    assert all(abs(v) <= MEAN_TOLERANCES[c] for c, v in means.items()), text
+    assert all(abs(v) <= STD_TOLERANCE for v in stds.values()), text
+    assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
+    if case == "wind_step_shear":   # the step itself: 8 m/s before, 11 m/s after (> 25 % faster)
+        before = ref[(ref.Time > 25) & (ref.Time < 30)].RotSpeed.mean()
+        assert b.RotSpeed.mean() > 1.25 * before
+    else:                           # the pitch is held at 10 deg, in both
+        assert np.allclose(out.BldPitch1, 10.0) and np.allclose(ref.BldPitch1, 10.0, atol=1e-5)
+
+
+def openfast_executable():
+    path = os.environ.get("OPENFAST") or str(REPO.parent / "shared" / "tools" / "openfast" / "openfast")
+    return path if Path(path).is_file() and os.access(path, os.X_OK) else None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(openfast_executable() is None, reason="no OpenFAST executable: set OPENFAST or install "
+                    "../shared/tools/openfast/openfast")
+def test_committed_decks_give_the_committed_reference(tmp_path):
+    """OpenFAST on a copy of the decks (same relative layout) reproduces the
+    reduced reference of the rotating release."""
+    for part in ("tests/data/openfast_more/rotating_release", "tests/data/openfast_turbine/common"):
+        shutil.copytree(REPO / part, tmp_path / part)
+    case = tmp_path / "tests/data/openfast_more/rotating_release"
+    proc = subprocess.run([openfast_executable(), "rotating_release.fst"], cwd=case, capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0 and "terminated normally" in proc.stdout, proc.stdout[-2000:]
+    new = read_openfast_output(case / "rotating_release.outb")
+    ref = reference("rotating_release")
+    for c in RELEASE_CHANNELS + ("RotSpeed",):
+        assert np.allclose(new[c].to_numpy(), ref[c].to_numpy(), rtol=1e-6, atol=1e-6 * np.ptp(ref[c])), c
