@@ -230,6 +230,20 @@ def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     assert len(lines) == 1 and "steady_08_ServoDyn.dat: PCMode: PCMode = 5" in lines[0]
 
 
+def test_every_dof_off_is_a_one_line_error(tmp_path):
+    """OpenFAST runs a case with every ElastoDyn DOF off (prescribed rotor);
+    modesel, which simulates free DOFs, refuses it in one line naming the inputs."""
+    fst = copy_case(tmp_path)
+    for label in ("FlapDOF1", "FlapDOF2", "EdgeDOF", "DrTrDOF", "GenDOF",
+                  "TwFADOF1", "TwFADOF2", "TwSSDOF1", "TwSSDOF2"):
+        edit(fst.parent / "steady_08_ElastoDyn.dat", label, "False")
+    with pytest.raises(ModeselError) as info:
+        load_scene(fst)
+    message = str(info.value)
+    assert "\n" not in message and str(fst) in message
+    assert "FlapDOF1" in message and "GenDOF" in message and "DOF is off" in message
+
+
 # ---------------------------------------------------------------- simulation
 def test_smoke_simulate_steady_08_outputs(outb_08):
     """A few seconds of steady_08: OpenFAST's channels, finite; the first output

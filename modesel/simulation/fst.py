@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from modesel.errors import ModeselError
 from modesel.modeset import FieldModes, ModeSet
 from modesel.simulation.scene import INITIAL_KEYS, Scene, use_deck_reader
 from modesel.turbine.openfast_inputs import InputFile
@@ -168,6 +169,11 @@ def scene_from_elastodyn(path: Path) -> Scene:
     for flag, dof in (("PtfmSgDOF", "PtfmSurge"), ("PtfmPDOF", "PtfmPitch")):
         if flags.get(flag):
             free.append(dof)
+    if not fields and not free:
+        raise ModeselError("every ElastoDyn structural and drivetrain DOF is off (FlapDOF1, EdgeDOF, TwFADOF1, "
+                           "TwSSDOF1, GenDOF, DrTrDOF, YawDOF all False): modesel simulates at least "
+                           "one free DOF", file=getattr(turbine, "source", None) or path,
+                           field="FlapDOF1/EdgeDOF/TwFADOF1/TwSSDOF1/GenDOF")
     initial = {k: v for k, v in turbine.initial.items() if k in INITIAL_KEYS}
     for dof, key in (("Yaw", "NacYaw"), ("PtfmSurge", "PtfmSurge"), ("PtfmPitch", "PtfmPitch")):
         if dof not in free and initial.get(key):
