@@ -41,7 +41,6 @@ from __future__ import annotations
 import re
 
 import numpy as np
-import pandas as pd
 
 from modesel.model.effects.base import Effect
 from modesel.vocabulary import dof_unit
@@ -74,8 +73,11 @@ def channel_unit(name: str) -> str | None:
     return CHANNEL_UNITS.get(f"{per_blade.group(1)}<b>") if per_blade else None
 
 
-def channels(built, integ) -> pd.DataFrame:
-    """Channels of `built` (simulation.assembly.Built) along `integ` (integrate.Integration)."""
+def channels(built, integ):
+    """Channels of `built` (simulation.assembly.Built) along `integ`
+    (integrate.Integration): a pandas DataFrame (pandas imported here, not by
+    the modules that only need `channel_unit`)."""
+    import pandas as pd
     model = built.model
     names = list(model.system.free)
     idx = {n: i for i, n in enumerate(names)}
