@@ -66,3 +66,16 @@ def test_parsed_decks_are_cached_and_reread_when_a_file_changes(tmp_path, monkey
     # switched off: no entries written
     monkeypatch.setenv("MODESEL_CACHE_DIR", "off")
     assert deck_cache.cache_dir() is None
+
+
+def test_deck_cache_keeps_at_most_max_entries(tmp_path, monkeypatch):
+    from modesel.turbine import deck_cache
+    monkeypatch.setenv("MODESEL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(deck_cache, "MAX_ENTRIES", 4)
+    reads = []
+    for k in range(6):
+        deck = tmp_path / f"deck{k}.dat"
+        deck.write_text(f"value {k}\n")
+        assert deck_cache.cached(lambda p: reads.append(p) or Path(p).read_text(), deck) == f"value {k}\n"
+    assert len(reads) == 6
+    assert 2 <= len(list((tmp_path / "cache" / "decks").glob("*.pickle"))) <= 4

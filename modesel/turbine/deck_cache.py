@@ -20,6 +20,7 @@ as every file it came from is unchanged.
   is skipped silently: the deck is read as without it. Errors of the reader
   (ModeselError for a bad deck) are never cached.
 - Every call returns a fresh copy (unpickled), so callers may change it.
+- At most `MAX_ENTRIES` entries: writing one more removes the older half.
 """
 from __future__ import annotations
 
@@ -34,6 +35,9 @@ from pathlib import Path
 
 FORMAT = 1
 OFF = ("off", "0", "no", "false")
+#: most entries kept; beyond it the older half is removed (decks in temporary
+#: folders, e.g. of tests, would otherwise pile up)
+MAX_ENTRIES = 2000
 
 
 def cache_dir() -> Path | None:
@@ -99,7 +103,17 @@ def cached(reader, path, *args, files=None, code=None):
         with tempfile.NamedTemporaryFile("wb", dir=folder, delete=False, suffix=".tmp") as stream:
             pickle.dump((key, sources, manifest, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
         os.replace(stream.name, entry)
+        _prune(folder)
     except Exception:   # unwritable cache or unpicklable value: no cache
         if stream is not None and os.path.exists(stream.name):
             os.unlink(stream.name)
     return value
+
+
+def _prune(folder: Path) -> None:
+    entries = list(folder.glob("*.pickle"))
+    if len(entries) <= MAX_ENTRIES:
+        return
+    entries.sort(key=lambda e: e.stat().st_mtime)
+    for old in entries[:len(entries) - MAX_ENTRIES // 2]:
+        old.unlink(missing_ok=True)
