@@ -539,8 +539,11 @@ class Deck:
 
 def read_deck(path: Path, kind: str):
     """Normalise `path` and read it with openfast_io; return (values, deck).
-    Parsed decks are cached on disk (`modesel.turbine.deck_cache`)."""
-    return cached(_read_deck, path, kind)
+    Parsed decks are cached on disk (`modesel.turbine.deck_cache`); errors
+    name `path` as given here."""
+    values, deck = cached(_read_deck, path, kind)
+    deck.path = Path(path)
+    return values, deck
 
 
 def _read_deck(path: Path, kind: str):
