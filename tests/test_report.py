@@ -247,3 +247,53 @@ def test_linearize_plot_writes_a_campbell_svg(tmp_path, capsys):
     assert "http" not in re.sub(r'\sxmlns(:\w+)?="[^"]*"', "", svg)
     assert main(["linearize", str(scene), "--plot", str(out)]) == 2
     assert "needs rotor speeds" in capsys.readouterr().err
+
+
+def test_report_lists_what_ran_and_draws_every_blade(finished, tmp_path):
+    """The chosen set simulated once more on the scene (a real rotating rotor):
+    the page lists its DOFs and effects as `modesel simulate` prints them and
+    draws every blade's tip OoP/IP panels with units, although the study
+    compares only blade 1."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from modesel.simulation import api
+    from modesel.study import report
+    from modesel.study.results import read_run_info, write_results
+    from modesel.study.search import open_study
+    from modesel.study.search.engine import Engine
+    from modesel.study.spec import parse_study
+    info = read_run_info(finished)
+    study = parse_study(info["study_toml"], info["study_file"])
+    summary = write_results(tmp_path, open_study(study, info["storage"], create=False), study)
+    scene = api.load_scene(Path(__file__).resolve().parents[1] / "studies/scenes/paper_rotating_blade.toml")
+    scene = replace(scene, tmax=1.0)
+    engine = Engine(lambda path: scene, api.simulate)
+    chosen = api.effective_modeset(scene, None)
+    page = report.render(finished, study, summary, [], chosen, None, [], {}, engine=engine)
+    ran = page[page.index("<h2>What ran</h2>"):page.index("<h2>Accuracy versus cost</h2>")]
+    dofs = api.simulate(scene, chosen, tmax=0.1).dof_names
+    assert ", ".join(dofs) in ran and f"<td class=''>{len(dofs)}</td>" in ran
+    from modesel.model.effects import effects_in_scene
+    on, flags, _ = effects_in_scene(scene, dofs)
+    assert f">{', '.join(on) or 'none'}</td><td class='l wrap'>{', '.join(flags)}</td>" in ran
+    series = page[page.index("<h2>Time series</h2>"):page.index("<h2>Error of the chosen")]
+    texts = {t.strip() for t in re.findall(r"<text[^>]*>([^<]*)</text>", series)}
+    for b in (2, 3):
+        assert {f"OoPDefl{b} [m]", f"IPDefl{b} [m]", f"OoPDefl{b} (not compared)"} <= texts, sorted(texts)
+    assert "OoPDefl1 [m]" in texts and "TTDspFA [m]" in texts      # compared: drawn as before
+
+
+def test_what_ran_passes_on_the_inert_settings_warnings():
+    from dataclasses import replace
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from modesel.simulation.api import load_scene
+    from modesel.study import report
+    scene = load_scene(Path(__file__).resolve().parents[1] / "studies/scenes/turbine_wind_08.toml")
+    still = replace(scene, effects=dict(scene.effects, aero=False, tower_drag=False))
+    rows = report.what_ran({"s": (still, SimpleNamespace(dof_names=["TFA1", "GeAz"], n_dofs=2))})
+    assert rows[0]["n_dofs"] == 2 and rows[0]["dofs"] == "TFA1, GeAz"
+    assert "aero" not in rows[0]["effects"].split(", ") and "wind" in rows[0]["effects"]
+    assert any("the wind loads nothing" in w for w in rows[0]["warnings"])

@@ -358,7 +358,11 @@ def test_rated_wind_thrust_matches_ct_table_and_rigid_bem(rated_run):
           f"rigid coned/tilted BEM {rigid / 1e3:.1f} kN; published ~800 kN")
     assert 700e3 < thrust < 850e3
     assert thrust == pytest.approx(table, rel=0.05)
-    assert thrust == pytest.approx(rigid, rel=0.02)
+    # the flexible rotor's thrust sits below the rigid rotor's: the flap deflection cones the
+    # blade further and AeroDyn's elastic twist turns the outer sections to feather; OpenFAST
+    # 5.0, 11.4 m/s, 12.1 rpm (steady_11p4 with GenDOF off, 20-30 s): flexible 720.8 kN,
+    # rigid blades and tower 739.8 kN, a drop of 2.57 %
+    assert thrust == pytest.approx(rigid * (1.0 - 0.0257), rel=0.02)
     # torque balance at steady speed: aerodynamic = gearbox ratio x generator torque
     assert last.RotTorq.mean() == pytest.approx(t.gearbox_ratio * last.GenTq.mean(), rel=0.01)
 

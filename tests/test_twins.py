@@ -24,7 +24,7 @@ from modesel.aero import BemOptions, BemSolver, Wind, skew_angles
 from modesel.turbine.aerodyn import read_aerodyn
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import COLUMNS, N_PARAMS, wind_params, wind_velocity
-from modesel.model.effects.aero import inflow
+from modesel.model.effects.aero import inflow, section_reference
 from modesel.multibody.kane import KaneEquations
 from modesel.multibody.kinematics import PointSet
 from modesel.simulation.api import build, load_scene
@@ -132,26 +132,41 @@ def bem_elements(rng):
 
 @twin("blade_inflow")
 def blade_inflow(rng):
-    """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles and the
-    annulus frame of AeroDyn's NoSweepPitchTwist projection (numpy)."""
+    """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles, the
+    annulus frame of AeroDyn's NoSweepPitchTwist projection and its
+    EulerExtract of the deflected section (numpy, scipy Rotation: the
+    section's rotation from Euler parameters (w, theta/2), ElastoDyn's
+    SmllRotTrans, and the 1-2-3 Euler angles of AeroDyn's orientation)."""
+    from scipy.spatial.transform import Rotation
     B, M = 3, 9
     R = np.stack([random_rotation(rng) for _ in range(B + 1)])
     vec = rng.normal(0.0, 1.0, (B + 1, 5, 3))
     vec[0, 0, 2] = rng.uniform(60.0, 120.0)             # apex height [m]
     pos = vec[0, 0] + rng.normal(0.0, 40.0, (B, M, 3))
     vel = rng.normal(0.0, 20.0, (B, M, 3))
-    tangent = unit(R[1:, None, :, 2] + rng.normal(0.0, 0.1, (B, M, 3)))
+    rotation = rng.normal(0.0, 0.15, (B, M, 3))
+    crv, tw, pitch = rng.normal(0.0, 0.05, M), rng.uniform(-0.1, 0.3, M), rng.uniform(-0.1, 0.5)
+    A = section_reference(crv, tw, pitch)
     wind = Wind(rng.uniform(3.0, 25.0), rng.uniform(0.0, 0.4), rng.uniform(60.0, 120.0),
                 direction=rng.uniform(-0.5, 0.5))
-    vn, vt, skew, psi, r_local, ratio = (np.empty((B, M)) for _ in range(6))
+    vn, vt, skew, psi, theta, r_local, ratio = (np.empty((B, M)) for _ in range(7))
     en, et, vrel = np.empty((B, M, 3)), np.empty((B, M, 3)), np.empty(3)
-    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, tangent, wind.params(0.0), vn, vt, skew, psi, en, et,
-           r_local, ratio, vrel)
+    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, rotation, A, wind.params(0.0), vn, vt, skew, psi, en,
+           et, theta, r_local, ratio, vrel)
     xs, zb = R[0, :, 0], R[1:, :, 2]
     e_c = unit(xs - (zb @ xs)[:, None] * zb)                       # coned normal
     e_t = np.cross(e_c, zb)
-    sin_c = np.einsum("bki,bi->bk", tangent, e_c)                  # out-of-plane angle of the section
-    e_n = np.sqrt(1 - sin_c ** 2)[..., None] * e_c[:, None, :] - sin_c[..., None] * zb[:, None, :]
+    coned = np.stack([e_c, np.cross(zb, e_c), zb], axis=1)         # (B, 3 axes, 3)
+    euler = np.empty((B, M, 3))
+    for b in range(B):
+        for k in range(M):
+            th = coned[b] @ rotation[b, k]
+            quat = np.append(th / 2, np.sqrt(1 - th @ th / 4))
+            ref = (Rotation.from_euler("XYZ", [0.0, crv[k], -tw[k]]).as_matrix().T
+                   @ Rotation.from_euler("XYZ", [0.0, 0.0, -pitch]).as_matrix().T)
+            section = ref @ Rotation.from_quat(quat).as_matrix().T          # change of basis, rows: axes
+            euler[b, k] = Rotation.from_matrix(section.T).as_euler("XYZ")
+    e_n = np.cos(euler[..., 1])[..., None] * e_c[:, None, :] - np.sin(euler[..., 1])[..., None] * zb[:, None, :]
     v_rel = wind.vector(pos[..., 2], 0.0, pos[..., 0], pos[..., 1]) - vel
     radial = unit(zb - (zb @ xs)[:, None] * xs)
     disk = v_rel.reshape(-1, 3).mean(axis=0)
@@ -162,6 +177,7 @@ def blade_inflow(rng):
             ("V_n", np.einsum("bki,bki->bk", v_rel, e_n), vn),
             ("V_t", -np.einsum("bki,bi->bk", v_rel, e_t), vt),
             ("annulus normal", e_n, en),
+            ("section pitch + twist", -euler[..., 2], theta),
             ("r_local", r_ref, r_local),
             ("tip ratio", r_ref / r_ref.max(axis=1, keepdims=True), ratio),
             ("chi_0", np.broadcast_to(chi0, (B, M)), skew),

@@ -556,21 +556,26 @@ class BemSolver:
                           *static[3:], np.empty(shape))
 
     def solve_into(self, buffers: BemBuffers, r, v_normal, v_tangential, pitch, skew,
-                   skew_azimuth, tip_ratio=None) -> int:
+                   skew_azimuth, tip_ratio=None, section_angle=None) -> int:
         """Solve all elements into `buffers` (from `allocate`) without allocating.
 
         r, v_normal, v_tangential, skew, skew_azimuth : C-contiguous float
         arrays of `buffers.shape` (or flat, of its size; inputs as in the
         module docstring); pitch [rad] : broadcastable to `buffers.shape`;
         tip_ratio : r / R of the Pitt/Peters correction (AeroDyn: rLocal over
-        the largest rLocal of the blade), default r / tip_radius.
+        the largest rLocal of the blade), default r / tip_radius;
+        section_angle [rad] : each element's pitch + twist (aerodynamic and
+        elastic, AeroDyn's theta) replacing pitch + the blade's twist.
         Returns the largest root-solver iteration count; the loads are
         `buffers.f_n`, `buffers.f_t` or `buffers.loads()`.
         """
         n = buffers.theta.size
         if not r.size == v_normal.size == v_tangential.size == skew.size == skew_azimuth.size == n:
             raise ValueError(f"solve_into: element arrays must have shape {buffers.shape}")
-        np.add(pitch, buffers.twist, out=buffers.theta)
+        if section_angle is None:
+            np.add(pitch, buffers.twist, out=buffers.theta)
+        else:
+            np.copyto(buffers.theta, np.reshape(section_angle, buffers.shape))
         flat_r = r.reshape(buffers.shape)
         if self.loss is None:       # constants from the radius of this solve (straight coned blade)
             np.copyto(buffers.c_tip, 0.5 * self.num_blades * (self.tip_radius - flat_r) / flat_r)

@@ -21,7 +21,9 @@ else the `--case`, else the first scene of the study that wrote MS.json
     (phi, dphi/dx, d2phi/dx2) and their shape integrals (mass, stiffness,
     damping, geometric stiffness, tip slope, frequencies, SID terms).
 --weighting  least-squares weight of the fits: 'uniform' (L2 over the span,
-    default) or 'mass' (weighted by the mass per unit length).
+    default), 'mass' (weighted by the mass per unit length) or 'stiffness'
+    (curvature error weighted by the bending stiffness: keeps ElastoDyn's
+    frequency of the mode best; the report prints it for shape and fit).
 --rpm  rotor speed for blade fields [rpm] (default 0, parked).
 """
 from __future__ import annotations

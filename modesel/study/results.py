@@ -176,7 +176,7 @@ def refresh(out_dir, *, storage: str | None = None, engine=None, log=None) -> di
                 notes.append(f"shapes drawn without the scene's turbine: {exc}")
     sentences = report.tolerance_sentences(ranked, study)
     page = report.render(out_dir, study, summary, sentences, chosen, scene, notes,
-                         dict(info, storage_display=mask_url(storage)))
+                         dict(info, storage_display=mask_url(storage)), engine=engine)
     atomic_write_text(out_dir / "report.html", page)
     summary["sentences"] = sentences
     summary["notes"] = notes

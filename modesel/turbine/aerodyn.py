@@ -280,7 +280,11 @@ def aerodyn_case_options(path) -> dict:
     relative wind normal to the tower). TipLoss, HubLoss, TanInd, AIDrag,
     TIDrag, SkewRedistrFactor and the polars are read by `read_aerodyn`.
     UseBlCm: the sectional pitching moment is not applied (modesel's
-    blades have no torsion; recorded in the notes).
+    blades have no torsion, and its loads carry no moments; recorded in the
+    notes). About the deflected section axis it has a component about the
+    shaft: -0.49 % of the aerodynamic rotor torque at 11.4 m/s in OpenFAST,
+    offset in modesel by the likewise missing moment of the forces about
+    the aerodynamic centres' offsets from the pitch axis (+0.46 %).
     """
     from modesel.turbine.openfast_inputs import InputFile
     f = InputFile(path, "AeroDyn")
@@ -326,6 +330,7 @@ def aerodyn_case_options(path) -> dict:
             raise f.unsupported(label, what)
     if "UseBlCm" in f and f.flag("UseBlCm"):
         notes.append(f"{f.path.name}: UseBlCm = True, but modesel applies no sectional pitching moment "
-                     f"(its blades have no torsion).")
+                     f"(its blades have no torsion; about the shaft it is ~-0.5 % of the aerodynamic torque, "
+                     f"offset by the moment of the aerodynamic-centre offsets, which modesel omits too).")
     return {"skew": skew, "tower_drag": f.flag("TwrAero"),
             "air_density_default": f.string("AirDens").lower() == "default", "notes": notes}

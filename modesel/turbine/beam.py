@@ -35,8 +35,11 @@ class BeamProperties:
         missing from the deck), one sentence each.
     stiffness_tuners : {field: [t_1, t_2, ...]} ElastoDyn modal stiffness
         tuners (FAStTunr, SSStTunr, FlStTunr): ElastoDyn multiplies the
-        generalised stiffness K_il of its own modes by sqrt(t_i t_l); they
-        apply to the deck's polynomial modes only. Empty when not given.
+        generalised stiffness K_il of the modes in its file by
+        sqrt(t_i t_l). modesel applies them to the field's shapes of any
+        family (mode k > len(tuners) takes the last one), as OpenFAST does
+        to the fits `modesel export` writes (the export warns when one is
+        not 1). Empty when not given.
     source : file the properties were read from, if any.
     """
 

@@ -73,3 +73,31 @@ def select(scene) -> list:
             continue
         out.append(cls(scene, cls.parse_options(value, scene.path, base_dir)))
     return out
+
+
+def effects_in_scene(scene, dof_names) -> tuple[list, list, list]:
+    """(effects evaluated, system flags on, warnings about settings that act
+    on nothing) of `scene` with free coordinates `dof_names`; the same
+    selection as `select`; `modesel simulate` and the report print it."""
+    on = []
+    for name in MODULES:
+        value = scene.effects.get(name)
+        if value is False or (value is None and name not in DEFAULT_ON):
+            continue
+        if effect_class(name).applies(scene):
+            on.append(name)
+    flags = [f for f in FLAGS if scene.effects.get(f, f != "elastodyn_nodes")]
+    warnings = []
+    if "wind" in on and not {"aero", "tower_drag"} & set(on):
+        warnings.append("[effects.wind] is set but neither aero nor tower_drag is on: the wind loads nothing")
+    for name in ("aero", "tower_drag"):
+        if name in on and "wind" not in on:
+            warnings.append(f"{name} is on without [effects.wind]: it acts in still air")
+    if "generator" in on and "GeAz" not in dof_names:
+        warnings.append("generator torque is on but GeAz is not free: it acts on nothing")
+    if "drivetrain" in on and "DrTr" not in dof_names and "drivetrain" in scene.effects:
+        warnings.append("[effects.drivetrain] is set but DrTr is not free: it acts on nothing")
+    for name, value in scene.effects.items():
+        if name in MODULES and value not in (None, False) and name not in on:
+            warnings.append(f"[effects] {name} is set but does not apply to this scene")
+    return on, flags, warnings

@@ -18,10 +18,21 @@ Needs [effects.wind]. At every right-hand side:
    v_rel = wind(station, t) - v_station. With x_s the shaft axis and z_b
    the blade's (coned, pitched) axis, the coned normal is
    e_c = unit(x_s - (x_s . z_b) z_b) and the direction of rotation
-   e_t = e_c x z_b. The section's out-of-plane angle theta (sin theta =
-   t . e_c, t the deflected unit tangent from the station slopes,
-   `TurbineModel.station_slopes`, and BlCrvAng) turns the annulus normal:
-   e_n = cos(theta) e_c - sin(theta) z_b. V_n = v_rel . e_n,
+   e_t = e_c x z_b. The deflected section's orientation is ElastoDyn's:
+   the small-rotation vector (ThetaIP, ThetaOoP, 0) = (-g_y, g_x, 0) of the
+   slopes g of the elastic displacement (`TurbineModel.station_slopes`) in
+   the pitched blade frame, turned into a rotation by SmllRotTrans (Euler
+   parameters (w, theta/2)) and applied to AeroDyn's reference orientation
+   of the node (BlCrvAng, BlTwist, pitch: `section_reference`), as OpenFAST's
+   mesh mapping does. AeroDyn's EulerExtract of it relative to the coned root
+   frame gives the out-of-plane angle theta_2, which turns the annulus normal
+   about the coned y axis, e_n = cos(theta_2) e_c - sin(theta_2) z_b, and the
+   section's pitch + twist that the angle of attack uses (`inflow`); the
+   latter carries the elastic twist ~ ThetaIP ThetaOoP / 2 of the combined
+   flap and edge slopes (about 0.1 deg at the tip at 11.4 m/s), which lowers
+   the outer sections' angle of attack with the flap deflection and swings
+   with the gravity-driven edge deflection once per revolution.
+   V_n = v_rel . e_n,
    V_t = -v_rel . e_t. The local radius r is the station's distance from
    the shaft axis (deflected); the Pitt/Peters radius ratio is r over the
    blade's largest r; the tip/hub loss constants use AeroDyn's zLocal.
@@ -137,11 +148,11 @@ class BladeAerodynamics(Effect):
             self.stations.append(PointSet.of_points(eq, name, s0, Phi, S))
             self.nodes.append(PointSet.of_body(eq, name))
             self.slopes.append(np.ascontiguousarray(model.station_slopes(name, span)))
-        crv = deck.blade.crv_angle
-        self.t0 = np.ascontiguousarray(np.stack([np.sin(crv), 0.0 * crv, np.cos(crv)], axis=1))
+        self.reference = section_reference(deck.blade.crv_angle, deck.blade.twist, model.pitch)
         self.r = np.empty((B, M))
         self.tip_ratio = np.empty((B, M))
-        self.tangent = np.empty((B, M, 3))
+        self.rotation = np.empty((B, M, 3))
+        self.theta = np.empty((B, M))
         nodes_span = self.nodes[0].s0[:, 2]
         self.weights = np.asarray(model.weights[self.names[0]], float)
         self.elastic = np.zeros((B, 0), dtype=np.int64)
@@ -173,10 +184,12 @@ class BladeAerodynamics(Effect):
         R, vec = frames
         for b, st in enumerate(self.stations):
             st.kinematics(frames, q_all, qd_all, self.pos[b], self.vel[b])
-            station_tangents(R[self.blades[b]], self.t0, self.slopes[b], q_all[st.idx], self.tangent[b])
-        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.tangent, self.wind.params(t),
-               self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.r, self.tip_ratio, self.vrel)
-        fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio)
+            station_rotations(R[self.blades[b]], self.slopes[b], q_all[st.idx], self.rotation[b])
+        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.rotation, self.reference,
+               self.wind.params(t), self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
+               self.r, self.tip_ratio, self.vrel)
+        fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
+                          self.theta)
         distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
         if self.elastic.shape[1]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
@@ -196,18 +209,18 @@ class BladeAerodynamics(Effect):
         grid, value, slope = s.polars.arrays
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
                               o.tolerance])
-        o_elem = packer.add(np.concatenate([np.add(self.pitch, buf.twist).ravel(), buf.chord.ravel()]))
+        o_elem = packer.add(buf.chord.ravel())
         o_T = packer.add(self.transfer)
         o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
-        o_t0 = packer.add(self.t0)
+        o_ref = packer.add(self.reference)
         o_slopes = packer.add(np.concatenate([np.ravel(g) for g in self.slopes]))
         static_loss = s.loss is not None
         o_loss = packer.add(np.concatenate([buf.c_tip.ravel(), buf.c_hub.ravel()])) if static_loss else 0
         ne_el = self.elastic.shape[1]
         o_corr = packer.add(self.correction) if ne_el else 0
-        o_scr = packer.scratch(5 * B * M * 3 + 8 * B * M + 3 + 13 * B * M + B * N * 3)
+        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 3)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
-                o_t0, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
+                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel())
         for st in self.stations:
@@ -251,8 +264,8 @@ class StationBem:
         self.solver = solver
         self.buffers = solver.allocate((n_blades, solver.chord.size))
 
-    def __call__(self, r, vn, vt, pitch, skew, psi, tip_ratio=None):
-        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi, tip_ratio)
+    def __call__(self, r, vn, vt, pitch, skew, psi, tip_ratio=None, section_angle=None):
+        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi, tip_ratio, section_angle)
         return self.buffers.f_n, self.buffers.f_t
 
 
@@ -377,30 +390,53 @@ def _linear_weights(stations, at):
     return lo.astype(np.int64), frac
 
 
+def section_reference(crv_angle, twist, pitch):
+    """(M, 3, 3) AeroDyn's reference orientation of each blade node relative to
+    the blade's coned (unpitched) root frame, as a change of basis (rows: the
+    section axes): EulerConstruct(0, BlCrvAng, -BlTwist) EulerConstruct(0, 0,
+    -pitch), EulerConstruct(t) = R_z(t_z) R_y(t_y) R_x(t_x) with
+    R_z(t) = [[cos t, sin t, 0], [-sin t, cos t, 0], [0, 0, 1]] and
+    R_y(t) = [[cos t, 0, -sin t], [0, 1, 0], [sin t, 0, cos t]]."""
+    def rz(t):
+        c, s_ = np.cos(t), np.sin(t)
+        return np.array([[c, s_, 0.0], [-s_, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def ry(t):
+        c, s_ = np.cos(t), np.sin(t)
+        return np.array([[c, 0.0, -s_], [0.0, 1.0, 0.0], [s_, 0.0, c]])
+
+    crv = np.broadcast_to(np.asarray(crv_angle, float), np.shape(twist))
+    return np.ascontiguousarray(np.stack([rz(-tw) @ ry(cv) @ rz(-float(pitch))
+                                          for cv, tw in zip(crv, np.asarray(twist, float))]))
+
+
 @njit(cache=True)
-def station_tangents(R_blade, t0, G, qe, out):
-    """Unit tangents (M, 3), inertial, of the deflected blade at its stations:
-    R_blade (t0_k + G_k q_e) normalised; t0 (M, 3) the undeflected tangent
-    in the blade frame (the axis, turned by BlCrvAng), G (M, 3, ne) the
-    slopes per unit coordinate (`TurbineModel.station_slopes`)."""
+def station_rotations(R_blade, G, qe, out):
+    """ElastoDyn's small-rotation vector (M, 3), inertial, of the deflected
+    blade's section at each station: R_blade (-g_y, g_x, 0), g = G q_e the
+    slope of the elastic displacement in the pitched blade frame (G (M, 3,
+    ne) per unit coordinate, `TurbineModel.station_slopes`); its components
+    are ElastoDyn's ThetaIP and ThetaOoP (SetCoordSy)."""
     for k in range(G.shape[0]):
-        d0, d1, d2 = t0[k, 0], t0[k, 1], t0[k, 2]
+        g0 = 0.0
+        g1 = 0.0
         for l in range(qe.shape[0]):
-            d0 += G[k, 0, l] * qe[l]
-            d1 += G[k, 1, l] * qe[l]
-            d2 += G[k, 2, l] * qe[l]
-        n = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            g0 += G[k, 0, l] * qe[l]
+            g1 += G[k, 1, l] * qe[l]
         for i in range(3):
-            out[k, i] = (R_blade[i, 0] * d0 + R_blade[i, 1] * d1 + R_blade[i, 2] * d2) / n
+            out[k, i] = -R_blade[i, 0] * g1 + R_blade[i, 1] * g0
 
 
 @njit(cache=True)
-def inflow(R, vec, hub, blades, pos, vel, tangent, wp, vn, vt, skew, psi, en, et, r_local, tip_ratio, vrel):
+def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, theta, r_local,
+           tip_ratio, vrel):
     """Element inflow (module doc, steps 2-3) for all blades and stations;
-    wp = `Wind.params(t)`, tangent (B, M, 3) the deflected blade's unit
-    tangents (`station_tangents`). Fills vn, vt, en, et (B, M, 3: the
-    annulus normal and the direction of rotation of each station), r_local
-    and tip_ratio (B, M), skew and psi (B, M), and vrel (3,) the
+    wp = `Wind.params(t)`, rotation (B, M, 3) the sections' small-rotation
+    vectors (`station_rotations`), A (M, 3, 3) their reference orientations
+    (`section_reference`). Fills vn, vt, en, et (B, M, 3: the annulus normal
+    and the direction of rotation of each station), theta (B, M: the
+    section's pitch + twist, aerodynamic and elastic, as AeroDyn extracts it),
+    r_local and tip_ratio (B, M), skew and psi (B, M), and vrel (3,) the
     disk-averaged relative wind (wind minus station velocity, averaged
     over all stations)."""
     xs = R[hub, :, 0]
@@ -417,10 +453,23 @@ def inflow(R, vec, hub, blades, pos, vel, tangent, wp, vn, vt, skew, psi, en, et
         t0, t1, t2 = n1 * zb[2] - n2 * zb[1], n2 * zb[0] - n0 * zb[2], n0 * zb[1] - n1 * zb[0]
         rmax = 0.0
         for k in range(pos.shape[1]):
-            # annulus normal: the coned normal turned about the coned y axis by
-            # the section's out-of-plane angle (AeroDyn NoSweepPitchTwist)
-            s_ = tangent[b, k, 0] * n0 + tangent[b, k, 1] * n1 + tangent[b, k, 2] * n2
-            c_ = np.sqrt(max(0.0, 1.0 - s_ * s_))
+            # the section in the coned root frame (x: e_c, y: z_b x e_c = -e_t,
+            # z: z_b): ElastoDyn's SmllRotTrans of the rotation vector (first
+            # column), times the reference orientation A; AeroDyn's
+            # EulerExtract gives the out-of-plane angle (sin = M31, turning the
+            # annulus normal about the coned y axis) and the twist
+            # atan2(M21, M11) (NoSweepPitchTwist)
+            ra, rb, rc = rotation[b, k, 0], rotation[b, k, 1], rotation[b, k, 2]
+            x1 = ra * n0 + rb * n1 + rc * n2
+            x2 = -(ra * t0 + rb * t1 + rc * t2)
+            x3 = ra * zb[0] + rb * zb[1] + rc * zb[2]
+            w = np.sqrt(max(0.0, 1.0 - 0.25 * (x1 * x1 + x2 * x2 + x3 * x3)))
+            c1, c2, c3 = 1.0 - 0.5 * (x2 * x2 + x3 * x3), 0.5 * x1 * x2 - x3 * w, 0.5 * x1 * x3 + x2 * w
+            m11 = A[k, 0, 0] * c1 + A[k, 0, 1] * c2 + A[k, 0, 2] * c3
+            m21 = A[k, 1, 0] * c1 + A[k, 1, 1] * c2 + A[k, 1, 2] * c3
+            s_ = min(1.0, max(-1.0, A[k, 2, 0] * c1 + A[k, 2, 1] * c2 + A[k, 2, 2] * c3))
+            theta[b, k] = np.arctan2(m21, m11)
+            c_ = np.sqrt(1.0 - s_ * s_)
             a0, a1, a2 = c_ * n0 - s_ * zb[0], c_ * n1 - s_ * zb[1], c_ * n2 - s_ * zb[2]
             en[b, k, 0], en[b, k, 1], en[b, k, 2] = a0, a1, a2
             et[b, k, 0], et[b, k, 1], et[b, k, 2] = t0, t1, t2

@@ -9,7 +9,7 @@ on-disk cache)
 evaluates them by a dispatch on the effect kind. The physics are the same
 compiled functions the Python path (`Built.M_F`, effects' `__call__`)
 calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
-`effects.aero.station_tangents`/`inflow`/`distribute`/
+`effects.aero.station_rotations`/`inflow`/`distribute`/
 `elastic_correction`, `aero.bem.solve_elements`,
 `aero.tower_drag.drag_forces`, `effects.generator.switched_torque`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
@@ -28,7 +28,7 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import distribute, elastic_correction, inflow, station_tangents
+from modesel.model.effects.aero import distribute, elastic_correction, inflow, station_rotations
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
@@ -80,13 +80,13 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 @njit(cache=True)
 def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
-    station kinematics and tangents, inflow, BEM, distribution to the nodes,
+    station kinematics and section rotations, inflow, BEM, distribution to the nodes,
     ElastoDyn's generalised-force correction when packed."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
                                                                 ints[p + 10])
-    o_t0, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
+    o_ref, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
                                                           ints[p + 14], ints[p + 15], ints[p + 16])
     p += 17
     blades = ints[p:p + B]
@@ -100,7 +100,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     o += B * M * 3
     vel = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
-    tangent = state[o:o + B * M * 3].reshape((B, M, 3))
+    rotation = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
     en = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
@@ -118,6 +118,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     o += B * M
     tip_ratio = state[o:o + B * M].reshape((B, M))
     o += B * M
+    section = state[o:o + B * M].reshape((B, M))
+    o += B * M
     c_tip = state[o:o + B * M]
     o += B * M
     c_hub = state[o:o + B * M]
@@ -127,7 +129,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     out = state[o:o + 13 * B * M].reshape((13, B * M))
     o += 13 * B * M
     forces = state[o:o + B * N * 3].reshape((B, N, 3))
-    t0 = floats[o_t0:o_t0 + 3 * M].reshape((M, 3))
+    A = floats[o_ref:o_ref + 9 * M].reshape((M, 3, 3))
     so = o_slopes
     for b in range(B):
         ne = ints[p + 2]
@@ -137,12 +139,13 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
         Gs = floats[so:so + M * 3 * ne].reshape((M, 3, ne))
         so += M * 3 * ne
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
-        station_tangents(R[blades[b]], t0, Gs, qe, tangent[b])
+        station_rotations(R[blades[b]], Gs, qe, rotation[b])
     wp = state[0:N_PARAMS]
-    inflow(R, vec, hub, blades, pos, vel, tangent, wp, vn, vt, skew, psi, en, et, r_local, tip_ratio, vrel)
+    inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
+           tip_ratio, vrel)
     c = floats[o_const:o_const + 6]
-    theta = floats[o_elem:o_elem + B * M]
-    chord = floats[o_elem + B * M:o_elem + 2 * B * M]
+    theta = section.ravel()
+    chord = floats[o_elem:o_elem + B * M]
     r = r_local.ravel()
     if static_loss != 0:
         c_tip[:] = floats[o_loss:o_loss + B * M]

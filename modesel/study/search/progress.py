@@ -21,6 +21,8 @@ import sys
 import time
 from pathlib import Path
 
+#: wall seconds between redraws of the search bar while a trial runs
+REFRESH_S = 1.0
 COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
 #: modules whose @njit(cache=True) functions are compiled on first use (the
 #: kernel, by every simulation; the BEM functions compile only with aero, so
@@ -102,12 +104,27 @@ class Progress:
         self.bar = None
         self.done = 0
         compile_notice(quiet=quiet)
+        self._stop = None
         if enabled:
+            import shutil
+            import threading
+
             from tqdm import tqdm
-            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True,
+            # narrower than the terminal: a "^C" echoed after the bar must not wrap the line,
+            # or clearing it would clear the wrapped remainder and leave the bar standing
+            width = max(40, min(shutil.get_terminal_size().columns - 3, 140))
+            self.bar = tqdm(total=total, desc=name, unit="trial", file=sys.stderr, leave=True, ncols=width,
                             bar_format="{desc}: {n_fmt}/{total_fmt} trials |{bar}| "
                                        "[{elapsed} elapsed, ETA {remaining}]{postfix}")
             self.bar.set_postfix_str("best error -, 0 failed")
+            # redraw every REFRESH_S while a trial runs: the elapsed time moves on (a trial can take minutes)
+            self._stop = threading.Event()
+            threading.Thread(target=self._tick, args=(self.bar, self._stop), daemon=True).start()
+
+    @staticmethod
+    def _tick(bar, stop):
+        while not stop.wait(REFRESH_S):
+            bar.refresh()
 
     @staticmethod
     def postfix(best: float | None, failed: int) -> str:
@@ -121,9 +138,24 @@ class Progress:
         self.done = max(self.done, done)
         self.bar.set_postfix_str(self.postfix(best, failed))
 
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
+    def close(self, clear: bool = False):
+        """End the bar. A run that stopped before its budget (tolerance met,
+        space exhausted, repeats) shows done/done and "stopped early" in place
+        of the ETA; `clear` (an error or an interrupt follows) removes the
+        bar, so that the one-line message stands alone."""
+        if self.bar is None:
+            return
+        self._stop.set()
+        if clear:
+            self.bar.leave = False
+        elif self.bar.n < self.bar.total:
+            self.bar.total = self.bar.n         # the ETA field says why instead (same width: never cut)
+            self.bar.bar_format = self.bar.bar_format.replace("ETA {remaining}", "stopped early")
+        self.bar.close()
+        if clear:       # also the "^C" the terminal echoed after the bar
+            self.bar.fp.write("\r\x1b[K")
+            self.bar.fp.flush()
+        self.bar = None
 
 
 def counts(opt, since: int, criterion):
@@ -141,7 +173,10 @@ def counts(opt, since: int, criterion):
 class SimulationProgress:
     """`progress(t, tmax)` hook of a simulation: after `after_s` wall seconds,
     rewrites one stderr line at most once per `every_s` wall seconds:
-    "simulated 4.3 of 20 s, 0.21x real time, ETA 1 min 15 s"."""
+    "simulated 4.3 of 20 s, 0.21x real time, ETA 1 min 15 s". The speed and
+    ETA count from the hook's first call (the start of the integration, not
+    the model set-up before it); `close` erases the line (the command's
+    summary follows)."""
 
     def __init__(self, label: str = "", stream=None, after_s: float = 2.0, every_s: float = 1.0,
                  enabled: bool | None = None):
@@ -150,10 +185,12 @@ class SimulationProgress:
         self.label = label
         self.after_s, self.every_s = after_s, every_s
         self.start = time.perf_counter()
+        self.first = None           # wall clock at the first call (the integration starts at t = 0)
         self.last = -1e9
         self.shown = False
 
     def line(self, t: float, tmax: float, wall: float) -> str:
+        """The line after `wall` seconds of integration that simulated `t` of `tmax` s."""
         rate = t / wall if wall > 0 else 0.0
         eta = _duration((tmax - t) / rate) if rate > 0 else "-"
         return (f"{self.label}simulated {t:.3g} of {tmax:.3g} s, {speed_text(t, wall)}, "
@@ -163,13 +200,14 @@ class SimulationProgress:
         if not self.enabled:
             return
         now = time.perf_counter()
-        wall = now - self.start
-        if wall < self.after_s or now - self.last < self.every_s:
+        if self.first is None:
+            self.first = now
+        if now - self.start < self.after_s or now - self.last < self.every_s:
             return
         self.last = now
         self.shown = True
-        print("\r" + self.line(t, tmax, wall).ljust(70), end="", file=self.stream, flush=True)
+        print("\r" + self.line(t, tmax, now - self.first) + "\x1b[K", end="", file=self.stream, flush=True)
 
     def close(self) -> None:
         if self.shown:
-            print(file=self.stream, flush=True)
+            print("\r\x1b[K", end="", file=self.stream, flush=True)

@@ -271,9 +271,11 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
             seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
             results = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks,
                                     lambda: bar.set(*counts(opt, since, criterion)))
-    finally:
-        bar.close()
+    except BaseException:
+        bar.close(clear=True)
+        raise
     errors = [error for error, _ in results if error]
+    bar.close(clear=bool(errors))
     if errors:
         raise ModeselError(errors[0])   # already "file: field: message" text from the worker
     new, repeats = tally(opt.get_trials(deepcopy=False), {owner for _, owner in results})
