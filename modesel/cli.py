@@ -52,13 +52,27 @@ COMMANDS = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _command_of(argv) -> str | None:
+    """The command named by `argv` (its first word after the global options),
+    None when none is named."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of `command` only: each command
+    module imports what its command needs (`modesel simulate` need not import
+    the candidate families, Optuna or SymPy)."""
     parser = _Parser(
         prog="modesel",
         description="Choose assumed-mode sets for reduced-order wind-turbine models.")
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    for name in (command,) if command else COMMANDS:
         try:
             module = importlib.import_module(f"modesel.commands.{name}")
         except ModuleNotFoundError as exc:  # command not built yet in this checkout
@@ -71,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser()
+    parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -73,7 +73,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit, vectorize
+from numba import njit
 
 from modesel.errors import ModeselError
 from modesel.aero.airfoils import polar_coefficients
@@ -114,8 +114,24 @@ class BemOptions:
 
 
 # --------------------------------------------------------------------------- models
-# Compiled ufuncs: callable with arrays from Python and with scalars from the
-# compiled element loop below (one implementation of each model).
+# Compiled scalar functions (`_name`), called by the compiled element loop
+# below, and their element-wise fronts (`name`) for arrays from Python (one
+# implementation of each model). Plain njit functions load from the on-disk
+# cache; numba's cached @vectorize ufuncs recompiled at every import (~1 s).
+
+def _elementwise(scalar):
+    """Front of a compiled scalar model: broadcasts its arguments (numpy rules)
+    and applies it element by element; 0-d inputs give a float."""
+    def front(*args):
+        arrays = np.broadcast_arrays(*(np.asarray(a, float) for a in args))
+        out = np.empty(arrays[0].shape)
+        for index in np.ndindex(out.shape):
+            out[index] = scalar(*(a[index] for a in arrays))
+        return float(out) if out.ndim == 0 else out
+    front.__name__ = front.__qualname__ = scalar.__name__.lstrip("_")
+    front.__doc__ = scalar.__doc__
+    return front
+
 
 @njit(cache=True, inline="always")
 def _prandtl(c, s):
@@ -125,8 +141,8 @@ def _prandtl(c, s):
     return (2.0 / np.pi) * np.arccos(np.exp(-c / max(abs(s), 1e-300)))
 
 
-@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def prandtl_factor(distance, num_blades, radius, sin_phi):
+@njit(cache=True)
+def _prandtl_factor(distance, num_blades, radius, sin_phi):
     """Prandtl factor 2/pi acos(exp(-B d / (2 rho |sin phi|))), 0 for d <= 0.
 
     Tip: d = R - r, rho = r.  Hub: d = r - R_hub, rho = R_hub.
@@ -149,8 +165,8 @@ def prandtl_loss(r, tip_radius, hub_radius, num_blades, sin_phi, tip=True, hub=T
     return F
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def one_minus_a_buhl(k, F):
+@njit(cache=True)
+def _one_minus_a_buhl(k, F):
     """1 - a on Buhl's branch (k > 2/3), evaluated without cancellation.
 
     Buhl (2005, NREL/TP-500-36834): C_T = 8/9 + (4F - 40/9) a + (50/9 - 4F) a^2
@@ -170,14 +186,14 @@ def one_minus_a_buhl(k, F):
     return (root_g2 - (2.0 / 3.0 - F)) / d_rat
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
-def axial_induction(k, F):
+@njit(cache=True)
+def _axial_induction(k, F):
     """Axial induction a(k, F) for phi > 0: momentum theory a = k / (1 + k) up
     to a = 0.4 (k <= 2/3), Buhl's Glauert correction beyond (continuous in
     value and slope at a = 0.4)."""
     if k <= 2.0 / 3.0:
         return k / (1.0 + k)
-    return 1.0 - one_minus_a_buhl(k, F)
+    return 1.0 - _one_minus_a_buhl(k, F)
 
 
 def thrust_coefficient(a, F=1.0):
@@ -188,8 +204,8 @@ def thrust_coefficient(a, F=1.0):
     return np.where(a <= 0.4, 4.0 * a * F * (1.0 - a), buhl)
 
 
-@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
-def pitt_peters(a, skew, skew_azimuth, r_over_R, factor):
+@njit(cache=True)
+def _pitt_peters(a, skew, skew_azimuth, r_over_R, factor):
     """Pitt/Peters skewed-wake correction of the axial induction.
 
         chi   = (0.6 a + 1) chi_0                       (wake skew, Burton et al.)
@@ -207,6 +223,12 @@ def pitt_peters(a, skew, skew_azimuth, r_over_R, factor):
         return a
     chi = min(max((0.6 * a + 1.0) * skew, -0.5 * np.pi + 1e-9), 0.5 * np.pi - 1e-9)
     return a * (1.0 + factor * r_over_R * np.tan(0.5 * chi) * np.cos(skew_azimuth))
+
+
+prandtl_factor = _elementwise(_prandtl_factor)
+one_minus_a_buhl = _elementwise(_one_minus_a_buhl)
+axial_induction = _elementwise(_axial_induction)
+pitt_peters = _elementwise(_pitt_peters)
 
 
 def skew_angles(wind, axis, radial):
@@ -266,7 +288,7 @@ def _residual(phi, e, offset, flags, grid, value, slope):
     k = q * cn / (s * s)
     # sin(phi) / (1 - a): momentum s (1 + k); Buhl s / (1 - a); brake s (1 - k)
     if phi > 0.0:
-        lead = s * (1.0 + k) if k <= 2.0 / 3.0 else s / one_minus_a_buhl(k, F)
+        lead = s * (1.0 + k) if k <= 2.0 / 3.0 else s / _one_minus_a_buhl(k, F)
     else:
         lead = s * (1.0 - k)
     if flags[2]:
@@ -355,12 +377,12 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
                 ct = cl * s - cd * c if ti_drag else cl * s
                 F = _loss(e, s, flags)
                 k = sigma4 * cn / (F * s * s)
-                a = axial_induction(k, F) if phi > 0.0 else k / (k - 1.0)
+                a = _axial_induction(k, F) if phi > 0.0 else k / (k - 1.0)
                 if tan_ind:
                     kp = sigma4 * ct / (F * s * c)
                     ap = kp / (1.0 - kp)
                 if skew_corr:
-                    a = pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
+                    a = _pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
                 ok = np.isfinite(a) and np.isfinite(ap)
                 if ok:  # AeroDyn limitInductionFactors
                     a = min(max(a, A_LIMITS[0]), A_LIMITS[1])

@@ -41,7 +41,6 @@ from __future__ import annotations
 import re
 
 import numpy as np
-import pandas as pd
 
 from modesel.model.effects.base import Effect
 from modesel.vocabulary import dof_unit
@@ -74,8 +73,11 @@ def channel_unit(name: str) -> str | None:
     return CHANNEL_UNITS.get(f"{per_blade.group(1)}<b>") if per_blade else None
 
 
-def channels(built, integ) -> pd.DataFrame:
-    """Channels of `built` (simulation.assembly.Built) along `integ` (integrate.Integration)."""
+def channels(built, integ):
+    """Channels of `built` (simulation.assembly.Built) along `integ`
+    (integrate.Integration): a pandas DataFrame (pandas imported here, not by
+    the modules that only need `channel_unit`)."""
+    import pandas as pd
     model = built.model
     names = list(model.system.free)
     idx = {n: i for i, n in enumerate(names)}
@@ -171,38 +173,55 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
 
 def load_channels(built, integ) -> dict:
     """Effect channels and reaction loads at every output time (empty when
-    the scene has neither)."""
+    the scene has neither). The reaction loads come from one compiled call
+    over all output times, with the effects' loads inside the compiled loop
+    (`Built.rhs`); the effect channels from the effects that have channels,
+    evaluated in Python at each output time (they see the same state)."""
     with_channels = [e for e in built.acting if type(e).channels is not Effect.channels]
     reactions = built.model.reactions
     if not with_channels and not reactions:
         return {}
-    eq = built.eq
-    if not built.acting:
-        # only compiled (linear) loads act: one compiled call for all output times
-        names = list(reactions)
-        loads = eq.compiled_rhs(built.linear, all_rows=True).reactions(
-            integ.t, integ.q, integ.qd, [reactions[n] for n in names])
-        return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}
-    rows = {name: eq.index[c] for name, c in reactions.items()}
     out = {}
-    fi, pi = eq.free_idx, eq.presc_idx
+    if reactions:
+        out.update(_reaction_channels(built, integ, reactions))
+    if not with_channels:
+        return out
+    eq = built.eq
+    gen = np.zeros(eq.n_all)
     for k, ti in enumerate(integ.t):
-        q, qd = integ.q[k], integ.qd[k]
-        q_all, qd_all, qdd_p = eq.full_state(q, qd, ti)
-        gen, nodes = built.loads(ti, q_all, qd_all)
-        row = {}
+        q_all, qd_all, _ = eq.full_state(integ.q[k], integ.qd[k], ti)
+        gen[:] = 0.0
+        nodes = {}
         for e in with_channels:
-            row.update(e.channels(built))
-        if rows:
-            M, F = eq.evaluate_full(q_all, qd_all, nodes or None, gen)
-            qdd = np.zeros(eq.n_all)
-            qdd[pi] = qdd_p[pi]
-            rhs = F[fi] - M[np.ix_(fi, pi)] @ qdd_p[pi] if len(pi) else F[fi]
-            qdd[fi] = np.linalg.solve(M[np.ix_(fi, fi)], rhs)
-            for name, r in rows.items():
-                row[name] = (F[r] - M[r] @ qdd) / 1e3
-        for name, value in row.items():
-            if name not in out:
-                out[name] = np.full(len(integ.t), np.nan)
-            out[name][k] = value
+            e(built, ti, q_all, qd_all, gen, nodes)
+            for name, value in e.channels(built).items():
+                if name not in out:
+                    out[name] = np.full(len(integ.t), np.nan)
+                out[name][k] = value
     return out
+
+
+def _reaction_channels(built, integ, reactions) -> dict:
+    """Reaction loads [kN, kN m] (module doc) of `reactions` {channel:
+    coordinate} along `integ`."""
+    names = list(reactions)
+    rows = [reactions[n] for n in names]
+    rhs = built.rhs(all_rows=True)
+    if hasattr(rhs, "reactions"):
+        loads = rhs.reactions(integ.t, integ.q, integ.qd, rows)
+        return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}
+    # an effect without a compiled form: the Python loads at each output time
+    eq = built.eq
+    index = [eq.index[r] for r in rows]
+    fi, pi = eq.free_idx, eq.presc_idx
+    loads = np.full((len(integ.t), len(rows)), np.nan)
+    for k, ti in enumerate(integ.t):
+        q_all, qd_all, qdd_p = eq.full_state(integ.q[k], integ.qd[k], ti)
+        gen, nodes = built.loads(ti, q_all, qd_all)
+        M, F = eq.evaluate_full(q_all, qd_all, nodes or None, gen)
+        qdd = np.zeros(eq.n_all)
+        qdd[pi] = qdd_p[pi]
+        rhs_f = F[fi] - M[np.ix_(fi, pi)] @ qdd_p[pi] if len(pi) else F[fi]
+        qdd[fi] = np.linalg.solve(M[np.ix_(fi, fi)], rhs_f)
+        loads[k] = F[index] - M[index] @ qdd
+    return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}

@@ -70,7 +70,8 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
                            f"{need / 2**30:.1f} GiB for the state history and outputs, more than "
                            f"{MAX_HISTORY_BYTES / 2**30:.0f} GiB; shorten tmax or raise dt",
                            file=scene.path, field="tmax/dt")
-    lin = linearize(built.M_F, built.q0 * 0, built.qd0, names)
+    rhs = built.rhs()       # compiled (M, F) with the effects' loads, as Built.M_F
+    lin = linearize(rhs, built.q0 * 0, built.qd0, names)
     if not all(np.all(np.isfinite(a)) for a in (lin.M, lin.C, lin.K)):
         raise ModeselError("the equations are not finite at the initial state (check the turbine's "
                            "properties and the scene's parameters)", file=scene.path)
@@ -79,7 +80,6 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
         check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
-    rhs = built.rhs()
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs)
     try:
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,

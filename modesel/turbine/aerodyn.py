@@ -23,6 +23,7 @@ from modesel.aero.airfoils import PolarSet, read_polars
 from modesel.aero.bem import PITT_PETERS_FACTOR, BemOptions
 from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
+from modesel.turbine.deck_cache import cached
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
 #: OpenFAST glue code's AirDens 1.225 kg/m^3, KinVisc 1.464e-5 m^2/s,
@@ -192,7 +193,19 @@ def read_aerodyn_blade(path: str, polars: PolarSet) -> AeroBlade:
 
 
 def read_aerodyn(path) -> AeroDynDeck:
-    """Read an AeroDyn main file and everything it references (see module doc)."""
+    """Read an AeroDyn main file and everything it references (see module doc).
+    Parsed decks are cached on disk (`modesel.turbine.deck_cache`)."""
+    return cached(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources,
+                  code=(__name__, "modesel.aero.airfoils"))
+
+
+def _aerodyn_sources(deck: AeroDynDeck) -> list:
+    """The files an `AeroDynDeck` was read from: main, blade and airfoil files."""
+    polars = {p.name for blade in deck.blades for p in blade.polars.polars}
+    return [deck.source, *sorted({b.source for b in deck.blades}), *sorted(polars)]
+
+
+def _read_aerodyn(path) -> AeroDynDeck:
     path = os.path.abspath(str(path))
     if not os.path.isfile(path):
         raise ModeselError("AeroDyn file not found", file=path)

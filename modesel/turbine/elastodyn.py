@@ -62,6 +62,7 @@ from openfast_io.FAST_writer import InputWriter_OpenFAST
 from modesel.errors import ModeselError, did_you_mean
 from modesel.turbine.beam import BeamProperties
 from modesel.turbine.description import Turbine
+from modesel.turbine.deck_cache import cached
 
 from modesel.turbine.builtin import BUILTIN_TURBINES, builtin_elastodyn
 
@@ -537,7 +538,15 @@ class Deck:
 
 
 def read_deck(path: Path, kind: str):
-    """Normalise `path` and read it with openfast_io; return (values, deck)."""
+    """Normalise `path` and read it with openfast_io; return (values, deck).
+    Parsed decks are cached on disk (`modesel.turbine.deck_cache`); errors
+    name `path` as given here."""
+    values, deck = cached(_read_deck, path, kind)
+    deck.path = Path(path)
+    return values, deck
+
+
+def _read_deck(path: Path, kind: str):
     deck = Deck(path, kind)
     text = deck.normalised()
     spec = _KINDS[kind]

@@ -24,8 +24,10 @@ from pathlib import Path
 #: wall seconds between redraws of the search bar while a trial runs
 REFRESH_S = 1.0
 COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
-#: modules whose @njit(cache=True) functions are compiled on first use
-COMPILED_MODULES = ("modesel.multibody.kernel", "modesel.aero.bem")
+#: modules whose @njit(cache=True) functions are compiled on first use (the
+#: kernel, by every simulation; the BEM functions compile only with aero, so
+#: they cannot tell a warm engine of a scene without aero)
+COMPILED_MODULES = ("modesel.multibody.kernel",)
 
 
 def _index_files(module: str) -> list:
@@ -36,11 +38,11 @@ def _index_files(module: str) -> list:
         return []
     source = Path(spec.origin)
     stem = source.stem
-    places = [source.parent / "__pycache__"]
-    if os.environ.get("NUMBA_CACHE_DIR"):
+    if os.environ.get("NUMBA_CACHE_DIR"):      # numba then uses this folder only
         root = Path(os.environ["NUMBA_CACHE_DIR"])
-        places += [root, *root.glob("**/" + source.parent.name)]
-    places.append(Path.home() / ".cache" / "numba")
+        places = [root, *root.glob("**/" + source.parent.name)]
+    else:
+        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba"]
     found = []
     for place in places:
         if place.is_dir():

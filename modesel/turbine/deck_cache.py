@@ -1,0 +1,119 @@
+"""On-disk cache of parsed input decks (issue 12, fast start).
+
+Reading an OpenFAST deck through openfast_io costs tens of milliseconds per
+file in constant overhead (its reader copies the whole output-channel table
+at every construction; the ElastoDyn layout is rebuilt from its writer), about
+1 s for a full turbine. `cached(reader, path, *args, files=...)` stores what
+`reader(path, *args)` returned, pickled, and returns the stored copy as long
+as every file it came from is unchanged.
+
+- Key: the reader's module and name, the resolved `path` and `args`.
+  Validity: (resolved path, modification time in ns, size) of every file
+  the value came from (`files(value)`, default: `path` alone), of the source
+  files of the modules in `code` (the reader's module by default) and the
+  openfast_io version. Any change reads the deck again.
+- Place: `$MODESEL_CACHE_DIR/decks`; without it `$NUMBA_CACHE_DIR/modesel/decks`
+  beside numba's own cache when that is set, else
+  `$XDG_CACHE_HOME/modesel/decks` (default `~/.cache/modesel/decks`).
+  `MODESEL_CACHE_DIR=off` switches the cache off.
+- A cache that cannot be written or read (read-only home, a damaged entry)
+  is skipped silently: the deck is read as without it. Errors of the reader
+  (ModeselError for a bad deck) are never cached.
+- Every call returns a fresh copy (unpickled), so callers may change it.
+- At most `MAX_ENTRIES` entries: writing one more removes the older half.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import pickle
+import sys
+import tempfile
+from importlib import metadata
+from pathlib import Path
+
+FORMAT = 1
+OFF = ("off", "0", "no", "false")
+#: most entries kept; beyond it the older half is removed (decks in temporary
+#: folders, e.g. of tests, would otherwise pile up)
+MAX_ENTRIES = 2000
+
+
+def cache_dir() -> Path | None:
+    """The folder of the deck cache (module doc), None when switched off."""
+    own = os.environ.get("MODESEL_CACHE_DIR")
+    if own is not None:
+        return None if own.strip().lower() in OFF or not own.strip() else Path(own) / "decks"
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"]) / "modesel" / "decks"
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "modesel" / "decks"
+
+
+def _stamp(path) -> tuple:
+    path = Path(path).resolve()
+    st = path.stat()
+    return str(path), st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=1)
+def _openfast_io_version() -> str:
+    try:
+        return metadata.version("openfast_io")
+    except metadata.PackageNotFoundError:
+        return "?"
+
+
+def _manifest(files, code) -> list:
+    stamps = [_stamp(f) for f in files]
+    for name in code:
+        module = sys.modules.get(name)
+        origin = getattr(module, "__file__", None)
+        if origin:
+            stamps.append(_stamp(origin))
+    return stamps + [("openfast_io", _openfast_io_version())]
+
+
+def cached(reader, path, *args, files=None, code=None):
+    """`reader(path, *args)`, from the cache when its files are unchanged (module doc).
+
+    files(value) -> the paths the value was read from (default [path]);
+    code: module names whose source the value depends on (default the reader's).
+    """
+    code = tuple(code or (reader.__module__,))
+    folder = cache_dir()
+    if folder is None:
+        return reader(path, *args)
+    key = repr((FORMAT, reader.__module__, reader.__qualname__, str(Path(path).resolve()), args))
+    entry = folder / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".pickle")
+    try:
+        with open(entry, "rb") as stream:
+            stored_key, sources, manifest, value = pickle.load(stream)
+        if stored_key == key and manifest == _manifest(sources, code):
+            return value
+    except Exception:   # absent, unreadable, damaged or stale: read the deck
+        pass
+    value = reader(path, *args)
+    stream = None
+    try:
+        sources = [str(s) for s in (files(value) if files else [path])]
+        manifest = _manifest(sources, code)
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("wb", dir=folder, delete=False, suffix=".tmp") as stream:
+            pickle.dump((key, sources, manifest, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(stream.name, entry)
+        _prune(folder)
+    except Exception:   # unwritable cache or unpicklable value: no cache
+        if stream is not None and os.path.exists(stream.name):
+            os.unlink(stream.name)
+    return value
+
+
+def _prune(folder: Path) -> None:
+    entries = list(folder.glob("*.pickle"))
+    if len(entries) <= MAX_ENTRIES:
+        return
+    entries.sort(key=lambda e: e.stat().st_mtime)
+    for old in entries[:len(entries) - MAX_ENTRIES // 2]:
+        old.unlink(missing_ok=True)
