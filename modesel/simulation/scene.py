@@ -68,7 +68,8 @@ DOF_KEYS = ("free", "fixed", "constant_speed")
 INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYaw", "PtfmSurge",
                 "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
 SOLVER_KEYS = ("method", "rtol", "atol", "max_step", "stability_check")
-SOLVER_METHODS = ("auto", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+#: "auto" and multibody.integrate.METHODS (not imported here: scene loading stays light)
+SOLVER_METHODS = ("auto", "compiled-DOP853", "compiled-Radau", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 ANGLE_KEYS = ("Azimuth", "NacYaw", "PtfmPitch", "BlPitch", "TTDspTwst")
 
 

@@ -9,7 +9,7 @@ import numpy as np
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
-from modesel.multibody.integrate import choose_method, integrate
+from modesel.multibody.integrate import choose_method, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation.assembly import Built, build
 from modesel.simulation.results import SimulationResult
@@ -50,7 +50,13 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     with outputs every dt [s] (default: the scene's) and return outputs.
     The integrator is chosen by the stiffness ratio of the scene linearised
     at rest (`integrate.choose_method`), after the static stability check.
-    progress: optional progress(t, tmax) hook of the integrator."""
+    progress: optional progress(t, tmax) hook of the integrator.
+    Runs with one BLAS thread (`integrate.single_thread_blas`)."""
+    with single_thread_blas():
+        return _simulate(scene, modeset, tmax, dt, progress)
+
+
+def _simulate(scene, modeset, tmax, dt, progress) -> SimulationResult:
     tmax = scene.tmax if tmax is None else float(tmax)
     dt = scene.dt if dt is None else float(dt)
     if not (tmax > 0 and dt > 0 and np.isfinite(tmax) and np.isfinite(dt)):
