@@ -53,10 +53,6 @@ MIN_FACTOR, MAX_FACTOR = 0.2, 10.0
 JAC_REL_STEP = np.sqrt(np.finfo(float).eps)
 JAC_FLOOR = 1.0
 TABLE = (C, E, T, TI, P)
-#: Newton failures caused by a trial state outside the model (non-finite or
-#: beyond a bound): the step is retried smaller, as scipy does on a
-#: non-finite right-hand side
-_TRIAL_FAILURES = (NON_FINITE_STATE, BEYOND_BOUND, NON_FINITE_ACC)
 
 
 @njit(cache=True)
@@ -326,6 +322,8 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                                                 work)
                         nfev += 1
                         if code != OK:
+                            # a trial state outside the model (non-finite, beyond a bound): retry
+                            # with a smaller step, as scipy does on a non-finite right-hand side
                             if code == NON_FINITE_STATE or code == BEYOND_BOUND or code == NON_FINITE_ACC:
                                 bad = True
                                 break
