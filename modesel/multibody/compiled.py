@@ -147,8 +147,8 @@ class CompiledRHS:
         code, _ = kernel.free_system(tk, x, f, True, self._no_bounds, prob, self.rwork, p.data, p.work)
         A, B = np.zeros((n, n)), np.zeros((n, n))
         if code == kernel.OK:
-            code, _ = implicit.jacobian(tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
-                                        self.rwork, p.data, p.work)
+            code = implicit.jacobian(tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
+                                     self.rwork, p.data, p.work, np.zeros(2, np.int64))
         if code != kernel.OK:
             A[:], B[:] = np.nan, np.nan
         return A, B

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit
 
 from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, STEP_COLLAPSE,
-                                      free_system)
+                                      free_system, initial_step, lu_factor, lu_solve_factored)
 
 S6 = 6 ** 0.5
 C = np.array([(4 - S6) / 10, (4 + S6) / 10, 1.0])
@@ -56,53 +56,6 @@ TABLE = (C, E, T, TI, P)
 
 
 @njit(cache=True)
-def lu_factor(A, piv):
-    """LU with partial pivoting in place (real or complex A); False at an exact zero pivot."""
-    n = A.shape[0]
-    for k in range(n):
-        p = k
-        big = abs(A[k, k])
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > big:
-                big = abs(A[i, k])
-                p = i
-        piv[k] = p
-        if big == 0.0:
-            return False
-        if p != k:
-            for j in range(n):
-                A[k, j], A[p, j] = A[p, j], A[k, j]
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            A[i, k] *= inv
-            l = A[i, k]
-            if l != 0.0:
-                for j in range(k + 1, n):
-                    A[i, j] -= l * A[k, j]
-    return True
-
-
-@njit(cache=True)
-def lu_solve(LU, piv, b):
-    """Solve with `lu_factor`'s result in place (b <- solution)."""
-    n = LU.shape[0]
-    for k in range(n):
-        p = piv[k]
-        if p != k:
-            b[k], b[p] = b[p], b[k]
-    for i in range(n):
-        s = b[i]
-        for j in range(i):
-            s -= LU[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= LU[i, j] * b[j]
-        b[i] = s / LU[i, i]
-
-
-@njit(cache=True)
 def _factor(c, Ja, Jb, S, piv):
     """S = c^2 I - c B - A, factorised; False if singular."""
     n = Ja.shape[0]
@@ -123,16 +76,18 @@ def _solve(c, Jb, S, piv, r, u, out):
         for j in range(n):
             v -= Jb[i, j] * r[j]
         u[i] = v
-    lu_solve(S, piv, u)
+    lu_solve_factored(S, piv, u)
     for i in range(n):
         out[i] = u[i]
         out[n + i] = c * u[i] - r[i]
 
 
 @njit(cache=True)
-def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work):
+def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work, counts):
     """Lower half of the Jacobian at (t, x), f = f(t, x): Ja = dqdd/dq,
-    Jb = dqdd/dqd by forward differences. Returns (status, n_rhs)."""
+    Jb = dqdd/dqd by forward differences. counts[0] (right-hand sides) and
+    counts[1] (Jacobians) are incremented. Returns a status code."""
+    counts[1] += 1
     n = Ja.shape[0]
     for i in range(2 * n):
         scratch[i] = x[i]
@@ -141,16 +96,17 @@ def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work)
         scratch[j] = x[j] + h
         h = scratch[j] - x[j]
         code, _ = free_system(t, scratch, out, True, inf_bounds, prob, rwork, data, work)
+        counts[0] += 1
         scratch[j] = x[j]
         if code != OK:
-            return code, j + 1
+            return code
         for i in range(n):
             d = (out[n + i] - f[n + i]) / h
             if j < n:
                 Ja[i, j] = d
             else:
                 Jb[i, j - n] = d
-    return OK, 2 * n
+    return OK
 
 
 @njit(cache=True)
@@ -205,40 +161,22 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     ZE = np.empty(nx)
     err = np.empty(nx)
     nfev = 1
-    n_jac = 0
+    counts = np.zeros(2, np.int64)          # right-hand sides and Jacobians of `jacobian`
     n_lu = 0
     n_steps = 0
     t = 0.0
     code, idx = free_system(t, y, f, True, bounds, prob, rwork, data, work)
     if code != OK:
-        return code, t, nfev, 0, idx, n_jac, n_lu, n_steps
-    # initial step (scipy select_initial_step, error order 3)
-    for i in range(nx):
-        scale[i] = atol[i] + abs(y[i]) * rtol
-    d0, d1 = _norm(y, scale), _norm(f, scale)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, tmax)
-    for i in range(nx):
-        scratch[i] = y[i] + h0 * f[i]
-    code, idx = free_system(t + h0, scratch, f_new, True, bounds, prob, rwork, data, work)
+        return code, t, nfev, 0, idx, 0, n_lu, n_steps
+    code, idx, h_abs = initial_step(t, y, f, tmax, max_step, rtol, atol, 3, bounds, prob, rwork, data, work)
     nfev += 1
     if code != OK:
-        return code, t + h0, nfev, 0, idx, n_jac, n_lu, n_steps
-    for i in range(nx):
-        tmp[i] = f_new[i] - f[i]
-    d2 = _norm(tmp, scale) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** 0.25
-    h_abs = min(100 * h0, h1, tmax, max_step)
+        return code, h_abs, nfev, 0, idx, 0, n_lu, n_steps
     h_abs_old = -1.0            # -1: none (scipy None)
     error_norm_old = -1.0
-    code, k = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work)
-    nfev += k
-    n_jac += 1
+    code = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
     if code != OK:
-        return code, t, nfev, 0, -1, n_jac, n_lu, n_steps
+        return code, t, nfev + counts[0], 0, -1, counts[1], n_lu, n_steps
     current_jac = True
     have_lu = False
     have_sol = False
@@ -274,7 +212,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
         safety = 0.9
         while not accepted:
             if h_abs < min_step:
-                return STEP_COLLAPSE, t, nfev, n_out, -1, n_jac, n_lu, n_steps
+                return STEP_COLLAPSE, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
             h = h_abs
             t_new = t + h
             if t_new > tmax:
@@ -327,7 +265,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                             if code == NON_FINITE_STATE or code == BEYOND_BOUND or code == NON_FINITE_ACC:
                                 bad = True
                                 break
-                            return code, t + Cc[s] * h, nfev, n_out, idx, n_jac, n_lu, n_steps
+                            return code, t + Cc[s] * h, nfev + counts[0], n_out, idx, counts[1], n_lu, n_steps
                         for i in range(nx):
                             F[s, i] = tmp[i]
                     if bad:
@@ -369,11 +307,9 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                 if not converged:
                     if current_jac:
                         break
-                    code, k = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work)
-                    nfev += k
-                    n_jac += 1
+                    code = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
                     if code != OK:
-                        return code, t, nfev, n_out, -1, n_jac, n_lu, n_steps
+                        return code, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
                     current_jac = True
                     have_lu = False
             if not converged:
@@ -415,13 +351,12 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
         code, idx = free_system(t_new, y_new, f_new, True, bounds, prob, rwork, data, work)
         nfev += 1
         if code != OK:
-            return code, t_new, nfev, n_out, idx, n_jac, n_lu, n_steps
+            return code, t_new, nfev + counts[0], n_out, idx, counts[1], n_lu, n_steps
         if recompute_jac:
-            code, k = jacobian(t_new, y_new, f_new, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work)
-            nfev += k
-            n_jac += 1
+            code = jacobian(t_new, y_new, f_new, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
+                            counts)
             if code != OK:
-                return code, t_new, nfev, n_out, -1, n_jac, n_lu, n_steps
+                return code, t_new, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
             current_jac = True
         else:
             current_jac = False
@@ -445,7 +380,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             for i in range(nx):
                 Y[n_out, i] = y_old[i] + Q[i, 0] * xx + Q[i, 1] * xx * xx + Q[i, 2] * xx * xx * xx
             n_out += 1
-    return OK, t, nfev, n_out, -1, n_jac, n_lu, n_steps
+    return OK, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
 
 
 @njit(cache=True)

@@ -163,7 +163,7 @@ class single_thread_blas:
     """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
 
     def __enter__(self):
-        import scipy.linalg.cython_blas  # noqa: F401  (loads scipy's BLAS, the one numba calls)
+        import scipy.linalg.cython_blas  # noqa: F401 (loads scipy's BLAS, the one numba calls)
 
         self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
         for _, set_ in self._saved:
