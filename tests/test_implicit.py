@@ -50,7 +50,7 @@ def test_jacobian_equals_central_differences_of_numpy_equations():
 
 def test_compiled_radau_follows_scipy_radau():
     """Same algorithm as scipy.integrate.Radau (only the Jacobian's finite
-    differences differ): outputs agree to 1e-6 m / rad over 10 s of the 3-DOF
+    differences and when a new one is taken differ): outputs agree to 1e-6 m / rad over 10 s of the 3-DOF
     land model at rtol 1e-8, atol 1e-10, with about the same work."""
     b = build(load_scene(f"{SCENES}/paper_3dof_land.toml"))
     rhs = b.rhs()
