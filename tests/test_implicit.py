@@ -106,3 +106,11 @@ def test_auto_choice_by_stiffness_ratio():
     assert choose_method(stiff, "auto", None)[0] == "Radau"
     assert choose_method(soft, "auto", None)[0] == "DOP853"
     assert choose_method(stiff, COMPILED_DOP853, rhs) == (COMPILED_DOP853, pytest.approx(STIFF_RATIO + 1))
+
+
+def test_scene_solver_methods_are_the_integrator_methods():
+    """`[solver] method` accepts "auto" and every method `integrate` runs
+    (scene.py lists them without importing the integrator)."""
+    from modesel.multibody.integrate import METHODS
+    from modesel.simulation.scene import SOLVER_METHODS
+    assert SOLVER_METHODS == ("auto",) + METHODS
