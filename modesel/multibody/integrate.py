@@ -38,6 +38,7 @@ Divergence detection: non-finite accelerations, states beyond physical bounds
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -128,10 +129,12 @@ def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tupl
     return (COMPILED_DOP853 if compiled else "DOP853"), ratio
 
 
+@functools.lru_cache(maxsize=1)
 def _blas_thread_controls():
     """(get, set) ctypes functions of each OpenBLAS loaded in this process
     (numpy's and scipy's; numba's matrix products call scipy's), found in
-    /proc/self/maps; empty where that does not exist."""
+    /proc/self/maps once (after scipy's BLAS is loaded); empty where that
+    does not exist."""
     import ctypes
 
     try:
@@ -163,7 +166,8 @@ class single_thread_blas:
     """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
 
     def __enter__(self):
-        import scipy.linalg.cython_blas  # noqa: F401 (loads scipy's BLAS, the one numba calls)
+        # load scipy's BLAS (the one numba's matrix products call) before looking for it
+        import scipy.linalg.cython_blas  # noqa: F401
 
         self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
         for _, set_ in self._saved:
