@@ -10,6 +10,7 @@ from modesel.multibody.system import System
 from modesel.multibody import linearize as lin
 
 SCENES = "studies/scenes"
+FREE_DECAY = "tests/data/openfast_free_decay/tower_fa_ss_shaft"
 
 
 def test_pendulum_matches_analytic():
@@ -83,12 +84,26 @@ def test_openfast_free_decay_reproduced(tmp_path):
     Main_Spar_ED.outb: normalised RMS error <= 0.25 % (the paper: 0.27/0.52/0.02 %)."""
     import pandas as pd
     from modesel.cli import main
-    from modesel.turbine.openfast_output import read_openfast_output
-    case = "tests/data/openfast_free_decay/tower_fa_ss_shaft"
     out = tmp_path / "sim.csv"
-    assert main(["simulate", f"{case}/Spar_ED_ForED.dat", "--tmax", "4", "--dt", "0.01", "--out", str(out)]) == 0
-    sim = pd.read_csv(out, header=[0, 1]).droplevel(1, axis=1)   # second header row: units
-    ref = read_openfast_output(f"{case}/Main_Spar_ED.outb")
+    assert main(["simulate", f"{FREE_DECAY}/Spar_ED_ForED.dat", "--tmax", "4", "--dt", "0.01", "--out", str(out)]) == 0
+    _assert_reproduces_free_decay(pd.read_csv(out, header=[0, 1]).droplevel(1, axis=1))   # second header row: units
+
+
+def test_openfast_free_decay_reproduced_by_compiled_radau():
+    """The same free decay with the method forced to the implicit
+    compiled-Radau (multibody/implicit.py): the same 0.25 % bound."""
+    scene = load_scene(f"{FREE_DECAY}/Spar_ED_ForED.dat")
+    scene.solver["method"] = "compiled-Radau"
+    res = simulate(scene, tmax=4.0, dt=0.01)
+    assert res.method == "compiled-Radau"
+    _assert_reproduces_free_decay(res.outputs)
+
+
+def _assert_reproduces_free_decay(sim):
+    """Normalised RMS error of sim (a DataFrame of OpenFAST channels) against
+    Main_Spar_ED.outb <= 0.25 % in Q_TFA1, Q_TSS1 and Azimuth."""
+    from modesel.turbine.openfast_output import read_openfast_output
+    ref = read_openfast_output(f"{FREE_DECAY}/Main_Spar_ED.outb")
     assert len(sim) == len(ref)
     for ch in ("Q_TFA1", "Q_TSS1", "Azimuth"):
         a, r = sim[ch].to_numpy(), ref[ch].to_numpy()
@@ -98,11 +113,14 @@ def test_openfast_free_decay_reproduced(tmp_path):
         assert nrmse <= 0.0025, (ch, nrmse)
 
 
-def test_divergence_is_detected():
-    """A tower made to buckle (gravity x 1e4) stops with a typed failure."""
+@pytest.mark.parametrize("method", ["auto", "compiled-Radau"])
+def test_divergence_is_detected(method):
+    """A tower made to buckle (gravity x 1e4) stops with a typed failure,
+    with the explicit method "auto" picks and with the implicit one."""
     from modesel.errors import SimulationDiverged
     scene = load_scene(f"{SCENES}/paper_2dof_tower_shaft.toml")
     scene.turbine.gravity = 9.80665e4
+    scene.solver["method"] = method
     with pytest.raises(SimulationDiverged) as info:
         simulate(scene, tmax=20.0)
     assert info.value.time < 20.0

@@ -2,14 +2,14 @@
 one `KaneEquations`, built from its public attributes: the packed arrays
 (`packed_full`, `packed_free`), the coordinate indices and the prescribed
 motion. `integrate` takes it as the right-hand side of the method
-"compiled-DOP853" (`kernel.dop853`), and of scipy's methods through
-`accelerations`.
+"compiled-DOP853" (`kernel.dop853`) and "compiled-Radau" (`implicit.radau5`),
+and of scipy's methods through `accelerations`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from modesel.multibody import kernel
+from modesel.multibody import implicit, kernel
 
 
 class CompiledRHS:
@@ -135,6 +135,37 @@ class CompiledRHS:
                                                        float(max_step), np.asarray(bounds, float), tuple(table),
                                                        self.prob, self.rwork, p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out]
+
+    def jacobian(self, t, q, qd):
+        """(dqdd/dq, dqdd/dqd) of the free coordinates at (t, q, qd) by the
+        compiled forward differences `implicit.radau5` uses (n_free x n_free each)."""
+        tk, prob = self._problem_at(t)
+        n = self.n_free
+        x = np.concatenate([q, qd]).astype(float)
+        f = np.zeros(2 * n)
+        p = self.packed
+        code, _ = kernel.free_system(tk, x, f, True, self._no_bounds, prob, self.rwork, p.data, p.work)
+        A, B = np.zeros((n, n)), np.zeros((n, n))
+        if code == kernel.OK:
+            code = implicit.jacobian(tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
+                                     self.rwork, p.data, p.work, np.zeros(2, np.int64))
+        if code != kernel.OK:
+            A[:], B[:] = np.nan, np.nan
+        return A, B
+
+    def radau(self, x0, t_eval, tmax, rtol, atol, max_step, bounds):
+        """Radau IIA (order 5) entirely compiled (`implicit.radau5`), with the
+        Jacobian by compiled finite differences: (status, time, n_rhs, index,
+        outputs Y (n_out x 2n) at t_eval, {"n_jac", "n_lu", "n_steps"})."""
+        if not self.compilable:
+            raise ValueError("a prescribed coordinate is a Python function: use scipy")
+        Y = np.zeros((len(t_eval), len(x0)))
+        p = self.packed
+        code, t_stop, nfev, n_out, idx, n_jac, n_lu, n_steps = implicit.radau5(
+            np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol), np.asarray(atol, float),
+            float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob, self.rwork, p.data, p.work, Y)
+        return code, t_stop, nfev, idx, Y[:n_out], {"n_jac": int(n_jac), "n_lu": int(n_lu),
+                                                      "n_steps": int(n_steps)}
 
 
 def _loads_tuple(loads):

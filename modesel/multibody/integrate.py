@@ -6,6 +6,12 @@
   (`kernel.dop853`) on a `CompiledRHS` whose prescribed coordinates are
   polynomial in t (`CompiledRHS.compilable`); its outputs equal scipy's
   DOP853 to round-off;
+- "compiled-Radau": Radau IIA of order 5 with scipy's algorithm (Newton
+  iteration, step control, error estimate, dense output), run entirely in
+  the numba kernel (`implicit.radau5`) with the Jacobian of the compiled
+  right-hand side (velocity rows exact, acceleration rows by compiled
+  forward differences); L-stable, so modes far faster than the step are
+  damped while the step follows the slow response;
 - scipy's methods by their own names ("DOP853", "Radau", "RK45", "BDF",
   "LSODA") through `solve_ivp`, on any callable (t, q, qd) -> (M, F), or on
   a `CompiledRHS`, whose accelerations are then solved in the kernel.
@@ -16,7 +22,14 @@ non-zero natural frequencies and N = omega_max * tmax / (2 pi) cycles of the
 fastest mode, an explicit Runge-Kutta method is used when r < 200
 ("compiled-DOP853" when the right-hand side runs compiled, else "DOP853"),
 else the implicit Radau IIA method, whose step is not limited by the fastest
-mode. The choice and the numbers behind it are returned with the result.
+mode ("compiled-Radau" when the right-hand side runs compiled, else scipy's
+"Radau"). The choice and the numbers behind it are returned with the result.
+
+BLAS threads: the kernel's small matrix products (a few hundred rows) call
+the BLAS of numpy/scipy, whose worker threads only add synchronisation at
+these sizes (a 41-DOF right-hand side took 40-100 ms instead of 0.3 ms on
+a loaded 2-core machine); `integrate` runs with one BLAS thread
+(`single_thread_blas`) and restores the previous count.
 
 Divergence detection: non-finite accelerations, states beyond physical bounds
 (elastic tip displacement above half the beam length, rigid rates above
@@ -25,6 +38,7 @@ Divergence detection: non-finite accelerations, states beyond physical bounds
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,8 +49,25 @@ from modesel.multibody import kernel
 from modesel.multibody.compiled import CompiledRHS
 
 COMPILED_DOP853 = "compiled-DOP853"
+COMPILED_RADAU = "compiled-Radau"
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
-METHODS = (COMPILED_DOP853,) + SCIPY_METHODS
+METHODS = (COMPILED_DOP853, COMPILED_RADAU) + SCIPY_METHODS
+#: stiffness ratio omega_max / omega_min from which "auto" integrates implicitly
+STIFF_RATIO = 200.0
+IMPLICIT_METHODS = (COMPILED_RADAU, "Radau", "BDF")
+#: default (rtol, atol [m, rad, m/s, rad/s]) where the scene sets none.
+#: Explicit: 1e-8, 1e-10. Implicit: 1e-6, 1e-6: Radau's step control keeps
+#: its global error far below the tolerance (3-DOF land model with cosine:6
+#: per tower direction, 13 DOFs, 20 s of a 1-m free decay, against
+#: compiled-DOP853 at rtol 1e-11: tower-top error 5e-12 m at 1e-8/1e-10,
+#: 5.2e-8 m at 1e-6/1e-6, rotor azimuth 1.2e-8 rad; compiled-DOP853 at its
+#: default 1.9e-10 m), and 1e-8/1e-10 would cost it 7 times the steps.
+DEFAULT_TOLERANCES = {"explicit": (1e-8, 1e-10), "implicit": (1e-6, 1e-6)}
+
+
+def default_tolerances(method: str) -> tuple[float, float]:
+    """(rtol, atol) of `method` where the scene sets none (DEFAULT_TOLERANCES)."""
+    return DEFAULT_TOLERANCES["implicit" if method in IMPLICIT_METHODS else "explicit"]
 
 
 def _dop853_table():
@@ -85,15 +116,68 @@ def runs_compiled(rhs_M_F) -> bool:
 
 def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tuple[str, float]:
     """(method, stiffness ratio) from the natural frequencies [rad/s]:
-    `requested` unless "auto"; "auto" gives "Radau" for a ratio of 200 or
-    more, else "compiled-DOP853" when `rhs` runs compiled, else "DOP853"."""
+    `requested` unless "auto"; "auto" gives the implicit Radau IIA for a
+    ratio of STIFF_RATIO or more, else DOP853; each "compiled-" when `rhs`
+    runs compiled."""
     w = np.abs(omegas[np.abs(omegas) > 1e-6])
     ratio = float(w.max() / w.min()) if len(w) else 1.0
     if requested != "auto":
         return requested, ratio
-    if ratio >= 200.0:
-        return "Radau", ratio
-    return (COMPILED_DOP853 if runs_compiled(rhs) else "DOP853"), ratio
+    compiled = runs_compiled(rhs)
+    if ratio >= STIFF_RATIO:
+        return (COMPILED_RADAU if compiled else "Radau"), ratio
+    return (COMPILED_DOP853 if compiled else "DOP853"), ratio
+
+
+@functools.lru_cache(maxsize=1)
+def _blas_thread_controls():
+    """(get, set) ctypes functions of each OpenBLAS loaded in this process
+    (numpy's and scipy's; numba's matrix products call scipy's), found in
+    /proc/self/maps once (after scipy's BLAS is loaded); empty where that
+    does not exist."""
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as fh:
+            libs = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ".so" in ln})
+    except OSError:
+        return []
+    out = []
+    for path in libs:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for suffix in ("", "64_", "_64_"):
+            names = [f"{pre}openblas_{{}}_num_threads{suffix}" for pre in ("scipy_", "")]
+            found = [(getattr(lib, nm.format("get"), None), getattr(lib, nm.format("set"), None))
+                     for nm in names]
+            found = [(g, st) for g, st in found if g is not None and st is not None]
+            if found:
+                get, set_ = found[0]
+                get.restype, get.argtypes = ctypes.c_int, []
+                set_.restype, set_.argtypes = None, [ctypes.c_int]
+                out.append((get, set_))
+                break
+    return out
+
+
+class single_thread_blas:
+    """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
+
+    def __enter__(self):
+        # load scipy's BLAS (the one numba's matrix products call) before looking for it
+        import scipy.linalg.cython_blas  # noqa: F401
+
+        self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
+        for _, set_ in self._saved:
+            set_(1)
+        return self
+
+    def __exit__(self, *exc):
+        for count, set_ in self._saved:
+            set_(count)
+        return False
 
 
 def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=None, max_step=np.inf,
@@ -109,17 +193,26 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
     n = len(q0)
     t_eval = np.arange(0.0, tmax + 0.5 * dt, dt)
     t_eval = t_eval[t_eval <= tmax + 1e-12]
-    counter = [0]
     qb = np.full(n, np.inf) if bounds is None else np.asarray(bounds, float)
     if atol is None:
         atol = 1e-10
     x0 = np.concatenate([q0, qd0]).astype(float)
-    if method == COMPILED_DOP853:
-        if not runs_compiled(rhs_M_F):
-            raise ModeselError(f"{COMPILED_DOP853} needs a compiled right-hand side with prescribed motion "
-                               "polynomial in time (and every load effect in compiled form)",
-                               field="solver.method")
-        return _integrate_compiled(rhs_M_F, x0, t_eval, float(tmax), rtol, atol, max_step, qb, stiffness_ratio)
+    with single_thread_blas():
+        if method in (COMPILED_DOP853, COMPILED_RADAU):
+            if not runs_compiled(rhs_M_F):
+                raise ModeselError(f"{method} needs a compiled right-hand side with prescribed motion "
+                                   "polynomial in time (and every load effect in compiled form)",
+                                   field="solver.method")
+            return _integrate_compiled(rhs_M_F, x0, t_eval, float(tmax), rtol, atol, max_step, qb,
+                                       stiffness_ratio, method)
+        return _integrate_scipy(rhs_M_F, x0, t_eval, tmax, method, rtol, atol, max_step, qb, stiffness_ratio,
+                                progress)
+
+
+def _integrate_scipy(rhs_M_F, x0, t_eval, tmax, method, rtol, atol, max_step, qb, stiffness_ratio, progress):
+    """scipy's solve_ivp with the named method."""
+    n = len(x0) // 2
+    counter = [0]
     compiled = isinstance(rhs_M_F, CompiledRHS)
 
     def accelerations(t, q, qd):
@@ -164,9 +257,10 @@ def _beyond(i):
     return f"coordinate {i} beyond its physical bound"
 
 
-def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, stiffness_ratio) -> Integration:
-    """compiled-DOP853: DOP853 entirely in the kernel (same algorithm and
-    tolerances as solve_ivp)."""
+def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, stiffness_ratio,
+                        method=COMPILED_DOP853) -> Integration:
+    """compiled-DOP853 or compiled-Radau: the method entirely in the kernel
+    (same algorithm and tolerances as solve_ivp's DOP853 / Radau)."""
     nx = len(x0)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)     # as scipy validate_tol
     atol = np.broadcast_to(np.asarray(atol, float), (nx,)).copy()
@@ -174,8 +268,12 @@ def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, sti
         raise ModeselError("atol must be non-negative", field="solver.atol")
     if not max_step > 0:
         raise ModeselError("max_step must be positive", field="solver.max_step")
-    code, t_stop, nfev, idx, Y = rhs.dop853(x0, t_eval, tmax, rtol, atol, float(max_step), bounds,
-                                            _DOP853_TABLE)
+    info = {}
+    if method == COMPILED_RADAU:
+        code, t_stop, nfev, idx, Y, info = rhs.radau(x0, t_eval, tmax, rtol, atol, float(max_step), bounds)
+    else:
+        code, t_stop, nfev, idx, Y = rhs.dop853(x0, t_eval, tmax, rtol, atol, float(max_step), bounds,
+                                                _DOP853_TABLE)
     if code == kernel.STEP_COLLAPSE:
         raise SimulationDiverged("integrator failed (Required step size is less than spacing between numbers.)",
                                  float(t_stop))
@@ -184,5 +282,5 @@ def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, sti
     if code != kernel.OK:
         raise SimulationDiverged(_REASONS[code], float(t_stop))
     n = nx // 2
-    return Integration(t_eval[:len(Y)].copy(), Y[:, :n].copy(), Y[:, n:].copy(), COMPILED_DOP853,
-                       stiffness_ratio, int(nfev))
+    return Integration(t_eval[:len(Y)].copy(), Y[:, :n].copy(), Y[:, n:].copy(), method,
+                       stiffness_ratio, int(nfev), info)

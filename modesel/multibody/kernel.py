@@ -601,34 +601,61 @@ def cholesky_solve(A, x):
 
 
 @njit(cache=True)
-def lu_solve(A, x):
-    """Solve A y = x in place (x <- y) by Gaussian elimination with partial
-    pivoting (as LAPACK getrf/getrs); False if a pivot is exactly zero."""
+def lu_factor(A, piv):
+    """LU with partial pivoting in place (as LAPACK getrf; real or complex A),
+    row interchanges in piv; False if a pivot is exactly zero."""
     n = A.shape[0]
     for k in range(n):
-        piv = k
+        p = k
         big = abs(A[k, k])
         for i in range(k + 1, n):
             if abs(A[i, k]) > big:
                 big = abs(A[i, k])
-                piv = i
+                p = i
+        piv[k] = p
         if big == 0.0:
             return False
-        if piv != k:
+        if p != k:
             for j in range(n):
-                A[k, j], A[piv, j] = A[piv, j], A[k, j]
-            x[k], x[piv] = x[piv], x[k]
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+        inv = 1.0 / A[k, k]
         for i in range(k + 1, n):
-            l = A[i, k] / A[k, k]
+            A[i, k] *= inv
+            l = A[i, k]
             if l != 0.0:
                 for j in range(k + 1, n):
                     A[i, j] -= l * A[k, j]
-                x[i] -= l * x[k]
-    for k in range(n - 1, -1, -1):
-        s = x[k]
-        for j in range(k + 1, n):
-            s -= A[k, j] * x[j]
-        x[k] = s / A[k, k]
+    return True
+
+
+@njit(cache=True)
+def lu_solve_factored(LU, piv, b):
+    """Solve with `lu_factor`'s result in place (b <- solution; as getrs)."""
+    n = LU.shape[0]
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            b[k], b[p] = b[p], b[k]
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= LU[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= LU[i, j] * b[j]
+        b[i] = s / LU[i, i]
+
+
+@njit(cache=True)
+def lu_solve(A, x):
+    """Solve A y = x in place (x <- y) by Gaussian elimination with partial
+    pivoting (A overwritten by its factors); False if a pivot is exactly zero."""
+    piv = np.empty(A.shape[0], np.int64)
+    if not lu_factor(A, piv):
+        return False
+    lu_solve_factored(A, piv, x)
     return True
 
 
@@ -768,6 +795,40 @@ def _rms(x):
 
 
 @njit(cache=True)
+def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
+    """scipy's select_initial_step for an error estimator of `order` from
+    (t, y), f = f(t, y), with one right-hand side: (status, index, step), or
+    (status, index, time of the failure) when that right-hand side fails."""
+    nx = y.shape[0]
+    scale = np.empty(nx)
+    e = np.empty(nx)
+    ys = np.empty(nx)
+    f1 = np.empty(nx)
+    for i in range(nx):
+        scale[i] = atol[i] + abs(y[i]) * rtol
+        e[i] = y[i] / scale[i]
+    d0 = _rms(e)
+    for i in range(nx):
+        e[i] = f[i] / scale[i]
+    d1 = _rms(e)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, tmax)
+    for i in range(nx):
+        ys[i] = y[i] + h0 * f[i]
+    code, idx = free_system(t + h0, ys, f1, True, bounds, prob, rwork, data, work)
+    if code != OK:
+        return code, idx, t + h0
+    for i in range(nx):
+        e[i] = (f1[i] - f[i]) / scale[i]
+    d2 = _rms(e) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return OK, -1, min(100 * h0, h1, tmax, max_step)
+
+
+@njit(cache=True)
 def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
     K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
@@ -807,28 +868,10 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     code, idx = free_system(t, y, f, True, bounds, prob, rwork, data, work)
     if code != OK:
         return code, t, nfev, 0, idx
-    # initial step (scipy select_initial_step, order 7)
-    for i in range(nx):
-        scale[i] = atol[i] + abs(y[i]) * rtol
-        e5[i] = y[i] / scale[i]
-        e3[i] = f[i] / scale[i]
-    d0, d1 = _rms(e5), _rms(e3)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, tmax)
-    for i in range(nx):
-        ys[i] = y[i] + h0 * f[i]
-    code, idx = free_system(t + h0, ys, f_new, True, bounds, prob, rwork, data, work)
+    code, idx, h_abs = initial_step(t, y, f, tmax, max_step, rtol, atol, 7, bounds, prob, rwork, data, work)
     nfev += 1
     if code != OK:
-        return code, t + h0, nfev, 0, idx
-    for i in range(nx):
-        e5[i] = (f_new[i] - f[i]) / scale[i]
-    d2 = _rms(e5) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    h_abs = min(100 * h0, h1, tmax, max_step)
+        return code, h_abs, nfev, 0, idx
     n_out = 0
     nt = t_eval.shape[0]
     while t < tmax:

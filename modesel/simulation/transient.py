@@ -9,7 +9,7 @@ import numpy as np
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
-from modesel.multibody.integrate import choose_method, integrate
+from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation.assembly import Built, build
 from modesel.simulation.results import SimulationResult
@@ -49,8 +49,16 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     """Integrate `scene` (with `modeset` overriding its shapes) over tmax [s]
     with outputs every dt [s] (default: the scene's) and return outputs.
     The integrator is chosen by the stiffness ratio of the scene linearised
-    at rest (`integrate.choose_method`), after the static stability check.
-    progress: optional progress(t, tmax) hook of the integrator."""
+    at rest (`integrate.choose_method`), after the static stability check;
+    tolerances are the scene's, else the method's defaults
+    (`integrate.default_tolerances`).
+    progress: optional progress(t, tmax) hook of the integrator.
+    Runs with one BLAS thread (`integrate.single_thread_blas`)."""
+    with single_thread_blas():
+        return _simulate(scene, modeset, tmax, dt, progress)
+
+
+def _simulate(scene, modeset, tmax, dt, progress) -> SimulationResult:
     tmax = scene.tmax if tmax is None else float(tmax)
     dt = scene.dt if dt is None else float(dt)
     if not (tmax > 0 and dt > 0 and np.isfinite(tmax) and np.isfinite(dt)):
@@ -81,9 +89,10 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs)
+    rtol, atol = default_tolerances(method)
     try:
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,
-                          rtol=float(scene.solver.get("rtol", 1e-8)), atol=scene.solver.get("atol"),
+                          rtol=float(scene.solver.get("rtol", rtol)), atol=scene.solver.get("atol", atol),
                           max_step=float(scene.solver.get("max_step", np.inf)), bounds=divergence_bounds(built),
                           stiffness_ratio=ratio, progress=progress)
     except SimulationDiverged as exc:     # name the coordinate and the scene

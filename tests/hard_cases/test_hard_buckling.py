@@ -107,7 +107,7 @@ def test_near_buckling_runs_conserves_energy_and_matches_a_richer_basis(m_crit):
     run = simulate(sc, ms, tmax=1.0, dt=0.01)
     assert run.finite()
     assert_method_justified(run, sc, ms)
-    assert run.method == "Radau" and run.ratio > 200            # the softened mode makes it stiff
+    assert run.method in ("compiled-Radau", "Radau") and run.ratio > 200            # the softened mode makes it stiff
     assert run.energy_drift() < 1e-6
 
 

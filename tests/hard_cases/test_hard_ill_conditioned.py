@@ -97,7 +97,7 @@ def test_engine_with_twelve_polynomials_matches_the_reference_and_conserves_ener
     run = simulate(sc, ms, tmax=0.1, dt=0.01)
     assert run.finite()
     assert_method_justified(run, sc, ms)
-    assert run.method == "Radau"                                       # ratio ~1900
+    assert run.method in ("compiled-Radau", "Radau")                                       # ratio ~1900
     assert run.energy_drift() < 1e-6
     # the tower top starts at the scene's 1 m and moves as a whole (MF1)
     assert run.result.outputs["TTDspFA"].iloc[0] == pytest.approx(1.0, abs=1e-12)
