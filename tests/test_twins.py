@@ -217,7 +217,8 @@ def kane_pairs(eq, rng, what):
     for k in range(2):
         q, qd = random_state(eq, rng)
         gen = rng.normal(size=eq.n_all) * 1e3
-        nodes = {b.name: rng.normal(size=(len(b.node_mass), 3)) * 1e3
+        # node forces [N]; at the second state node moments [N m] too (columns 3-5)
+        nodes = {b.name: rng.normal(size=(len(b.node_mass), 3 * (k + 1))) * 1e3
                  for b in eq.system.flexible_bodies()}
         M, F = eq.evaluate_full(q, qd, nodes, gen)
         Mr, Fr = eq.evaluate_full_reference(q, qd, nodes, gen)

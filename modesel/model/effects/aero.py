@@ -118,6 +118,7 @@ class BladeAerodynamics(Effect):
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
         "air_density": Option("number", None, "air density [kg/m^3] (default: the deck's)", positive=True),
+        "pitching_moment": Option("bool", None, "sectional pitching moment Cm q c^2 (default: the deck's UseBlCm)"),
     }
 
     def setup(self, built):
@@ -155,18 +156,27 @@ class BladeAerodynamics(Effect):
         self.theta = np.empty((B, M))
         nodes_span = self.nodes[0].s0[:, 2]
         self.weights = np.asarray(model.weights[self.names[0]], float)
-        self.elastic = np.zeros((B, 0), dtype=np.int64)
+        self.elastic = np.array([st.idx for st in self.stations], dtype=np.int64).reshape(B, -1)
+        line = deck.blade.reference_line()
+        self.node_slopes = np.ascontiguousarray(model.station_slopes(self.names[0], nodes_span))
+        self.correction = np.zeros((M, 3, 0))
         if model.blade_elastodyn_nodes:
             self.transfer = _lumped_transfer(span, nodes_span, self.weights > 0)
             structural = self.weights > 0
             body = eq.system.body(self.names[0])
             phi = np.asarray(body.shapes, float)
-            slopes = model.station_slopes(self.names[0], nodes_span)
             self.correction = np.ascontiguousarray(_elastodyn_correction(
-                deck.blade.reference_line(), nodes_span, phi, slopes, structural, self.transfer))
-            self.elastic = np.array([st.idx for st in self.stations], dtype=np.int64)
+                line, nodes_span, phi, self.node_slopes, structural, self.transfer))
+            self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
         else:
             self.transfer = _sampled_transfer(span, nodes_span, self.weights)
+            self.lumping = self.transfer
+            self.near = np.arange(len(nodes_span), dtype=np.int64)
+            self.offset = np.zeros((len(nodes_span), 3))
+            for c in range(2):
+                self.offset[:, c] = np.interp(nodes_span, span, line[:, c])
+        use_cm = deck.pitching_moment if self.options["pitching_moment"] is None else self.options["pitching_moment"]
+        self.cm_scale = 1.0 if use_cm else 0.0
         self.hub = eq.body_index["hub"]
         self.blades = np.array([eq.body_index[n] for n in self.names], dtype=np.int64)
         self.pitch = model.pitch
@@ -176,7 +186,7 @@ class BladeAerodynamics(Effect):
         self.vn, self.vt, self.skew, self.psi = (np.empty((B, M)) for _ in range(4))
         self.en = np.empty((B, M, 3))
         self.et = np.empty((B, M, 3))
-        self.forces = np.empty((B, len(nodes_span), 3))
+        self.forces = np.empty((B, len(nodes_span), 6))     # node forces [N], moments [N m]
         self.rmax = float(np.max((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None]))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
@@ -191,8 +201,11 @@ class BladeAerodynamics(Effect):
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
                           self.theta)
         distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
-        if self.elastic.shape[1]:
+        if self.correction.shape[2]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
+        node_moments(fn, ft, self.bem.buffers.out[11].reshape(fn.shape), self.cm_scale, self.en, self.et, R,
+                     self.blades, self.lumping, self.near, self.offset, self.node_slopes, self.elastic, q_all,
+                     self.forces, generalized)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
@@ -217,12 +230,16 @@ class BladeAerodynamics(Effect):
         static_loss = s.loss is not None
         o_loss = packer.add(np.concatenate([buf.c_tip.ravel(), buf.c_hub.ravel()])) if static_loss else 0
         ne_el = self.elastic.shape[1]
-        o_corr = packer.add(self.correction) if ne_el else 0
-        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 3)
+        has_corr = self.correction.shape[2] > 0
+        o_corr = packer.add(self.correction) if has_corr else 0
+        K = len(self.near)
+        o_mom = packer.add(np.concatenate([[self.cm_scale], self.lumping.ravel(), self.offset.ravel(),
+                                           self.node_slopes.ravel()]))
+        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
-                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
+                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
-        ints += list(np.asarray(self.elastic, np.int64).ravel())
+        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
@@ -271,13 +288,15 @@ class StationBem:
 
 @njit(cache=True)
 def rotor_loads(forces, pos, R_hub, apex):
-    """(thrust along the shaft x_s, torque about it through the apex) of node forces."""
+    """(thrust along the shaft x_s, torque about it through the apex) of node
+    forces (columns 0-2) and node moments (3-5)."""
     thrust = 0.0
     torque = 0.0
     for i in range(forces.shape[0]):
         f = forces[i]
         d0, d1, d2 = pos[i, 0] - apex[0], pos[i, 1] - apex[1], pos[i, 2] - apex[2]
         m0, m1, m2 = d1 * f[2] - d2 * f[1], d2 * f[0] - d0 * f[2], d0 * f[1] - d1 * f[0]
+        m0, m1, m2 = m0 + f[3], m1 + f[4], m2 + f[5]
         thrust += f[0] * R_hub[0, 0] + f[1] * R_hub[1, 0] + f[2] * R_hub[2, 0]
         torque += m0 * R_hub[0, 0] + m1 * R_hub[1, 0] + m2 * R_hub[2, 0]
     return thrust, torque
@@ -301,13 +320,7 @@ def _lumped_transfer(stations, at, structural):
     `structural` nodes' positions to the stations (end elements extrapolated),
     so sum_i W[i, a] = 1 and sum_i W[i, a] z_i = z_a."""
     stations = np.asarray(stations, float)
-    h = np.diff(stations)
-    Lmp = np.zeros((len(stations), len(stations)))
-    for k, hk in enumerate(h):
-        Lmp[k, k] += hk / 3.0
-        Lmp[k, k + 1] += hk / 6.0
-        Lmp[k + 1, k + 1] += hk / 3.0
-        Lmp[k + 1, k] += hk / 6.0
+    Lmp = _line2_lumping(stations)
     idx = np.flatnonzero(structural)
     z = np.asarray(at, float)[idx]
     W = np.zeros((len(at), len(stations)))
@@ -320,6 +333,44 @@ def _lumped_transfer(stations, at, structural):
     W[idx[lo], cols] += 1.0 - a
     W[idx[lo + 1], cols] += a
     return W @ Lmp
+
+
+def _line2_lumping(span):
+    """(M, M) matrix L of ModMesh's lumping of a line load, linear between
+    the stations `span`, to point loads at the stations: F_a = sum_b L[a, b]
+    f_b, over the two adjacent elements h (2 f_a + f_b) / 6."""
+    h = np.diff(np.asarray(span, float))
+    Lmp = np.zeros((len(h) + 1, len(h) + 1))
+    for k, hk in enumerate(h):
+        Lmp[k, k] += hk / 3.0
+        Lmp[k, k + 1] += hk / 6.0
+        Lmp[k + 1, k + 1] += hk / 3.0
+        Lmp[k + 1, k] += hk / 6.0
+    return Lmp
+
+
+def _nearest_nodes(line, nodes, structural):
+    """(M,) the structural node (index into `nodes`, span [m] on the blade
+    axis) nearest to each station of `line` (M, 3), as OpenFAST's point-to-
+    point mapping pairs them."""
+    idx = np.flatnonzero(structural)
+    node_pos = np.zeros((len(idx), 3))
+    node_pos[:, 2] = np.asarray(nodes, float)[idx]
+    return idx[np.argmin(np.linalg.norm(np.asarray(line, float)[:, None, :] - node_pos[None, :, :], axis=2),
+                         axis=1)].astype(np.int64)
+
+
+def _elastodyn_moment_points(line, nodes, structural):
+    """(L, near, offset) of `node_moments` for ElastoDyn's nodes: the line
+    loads lumped to the stations (`_line2_lumping`), each station's load
+    carried to its nearest structural node, offset (M, 3) = (BlCrvAC,
+    BlSwpAC, 0): the part of the station's offset from that node whose
+    moment the node forces lack (the spanwise part is carried by the node
+    forces' rigid-exact transfer and `_elastodyn_correction`)."""
+    line = np.asarray(line, float)
+    offset = np.zeros_like(line)
+    offset[:, :2] = line[:, :2]
+    return _line2_lumping(line[:, 2]), _nearest_nodes(line, nodes, structural), offset
 
 
 def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
@@ -340,22 +391,12 @@ def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
     their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
     line = np.asarray(line, float)
-    M = len(line)
-    idx = np.flatnonzero(structural)
-    node_pos = np.zeros((len(idx), 3))
-    node_pos[:, 2] = np.asarray(nodes, float)[idx]
-    near = idx[np.argmin(np.linalg.norm(line[:, None, :] - node_pos[None, :, :], axis=2), axis=1)]
+    near = _nearest_nodes(line, nodes, structural)
     dz = line[:, 2] - np.asarray(nodes, float)[near]
     # rotation of node n per unit coordinate: theta = z x s, so (dz z x F) . theta = dz F . s
     virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (M, 3, ne)
-    span = line[:, 2]
-    h = np.diff(span)
-    Lmp = np.zeros((M, M))
-    for k, hk in enumerate(h):
-        Lmp[k, k] += hk / 3.0
-        Lmp[k, k + 1] += hk / 6.0
-        Lmp[k + 1, k + 1] += hk / 3.0
-        Lmp[k + 1, k] += hk / 6.0
+    h = np.diff(line[:, 2])
+    Lmp = _line2_lumping(line[:, 2])
     D = np.einsum("ab,aij->bij", Lmp, virtual) - np.einsum("ib,ikj->bkj", T, phi)
     for k, hk in enumerate(h):     # element end moments: (h^2/12) (f_1 + f_2) . (s(n_1) - s(n_2))
         ds = (hk * hk / 12.0) * (slopes[near[k]] - slopes[near[k + 1]])
@@ -379,6 +420,70 @@ def elastic_correction(fn, ft, en, et, R, blades, D, elastic, generalized):
             f2 = Rb[0, 2] * g0 + Rb[1, 2] * g1 + Rb[2, 2] * g2
             for j in range(D.shape[2]):
                 generalized[elastic[b, j]] += f0 * D[a, 0, j] + f1 * D[a, 1, j] + f2 * D[a, 2, j]
+
+
+@njit(cache=True)
+def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slopes, elastic, q_all, forces,
+                 generalized):
+    """Node moments of the blade loads (module doc, step 5): the line loads
+    f_a = f_n,a e_n,a + f_t,a e_t,a [N/m] and the pitching moments cm_scale
+    fm_a e_z,a [N m/m] (e_z = e_t x e_n, the annulus z axis of the deflected
+    section, AeroDyn's BEM_Mod 1) lumped to K points, F_p = sum_a L[p, a] f_a
+    and M_p = sum_a L[p, a] m_a, and with the moment of the point's offset
+    from the blade axis, d_p x F_p (d_p = R_blade offset[p]), put on node
+    near[p] as forces[b, near[p], 3:6] (the engine applies a node moment
+    through the body's angular velocity: all rigid coordinates). The blade's
+    elastic coordinates j get its work through ElastoDyn's partial angular
+    velocity of the node section, -s_y j_1 + s_x j_2 with s the mode's
+    slope and j_1, j_2 the deflected section axes; in the pitched blade
+    frame, to first order in the deflection slope g = sum_j s_j q_j,
+    (-s_y, s_x, s_y g_x - s_x g_y) (slopes (N, 3, ne) at the nodes)."""
+    B = fn.shape[0]
+    ne = elastic.shape[1]
+    for b in range(B):
+        Rb = R[blades[b]]
+        for i in range(forces.shape[1]):
+            forces[b, i, 3] = 0.0
+            forces[b, i, 4] = 0.0
+            forces[b, i, 5] = 0.0
+        for p in range(L.shape[0]):
+            F0 = F1 = F2 = M0 = M1 = M2 = 0.0
+            for a in range(L.shape[1]):
+                w = L[p, a]
+                if w == 0.0:
+                    continue
+                n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
+                t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
+                F0 += w * (fn[b, a] * n0 + ft[b, a] * t0)
+                F1 += w * (fn[b, a] * n1 + ft[b, a] * t1)
+                F2 += w * (fn[b, a] * n2 + ft[b, a] * t2)
+                m = w * cm_scale * fm[b, a]
+                M0 += m * (t1 * n2 - t2 * n1)
+                M1 += m * (t2 * n0 - t0 * n2)
+                M2 += m * (t0 * n1 - t1 * n0)
+            d0 = Rb[0, 0] * offset[p, 0] + Rb[0, 1] * offset[p, 1] + Rb[0, 2] * offset[p, 2]
+            d1 = Rb[1, 0] * offset[p, 0] + Rb[1, 1] * offset[p, 1] + Rb[1, 2] * offset[p, 2]
+            d2 = Rb[2, 0] * offset[p, 0] + Rb[2, 1] * offset[p, 1] + Rb[2, 2] * offset[p, 2]
+            M0 += d1 * F2 - d2 * F1
+            M1 += d2 * F0 - d0 * F2
+            M2 += d0 * F1 - d1 * F0
+            n = near[p]
+            forces[b, n, 3] += M0
+            forces[b, n, 4] += M1
+            forces[b, n, 5] += M2
+            if ne == 0:
+                continue
+            l0 = Rb[0, 0] * M0 + Rb[1, 0] * M1 + Rb[2, 0] * M2
+            l1 = Rb[0, 1] * M0 + Rb[1, 1] * M1 + Rb[2, 1] * M2
+            l2 = Rb[0, 2] * M0 + Rb[1, 2] * M1 + Rb[2, 2] * M2
+            gx = gy = 0.0
+            for j in range(ne):
+                qj = q_all[elastic[b, j]]
+                gx += slopes[n, 0, j] * qj
+                gy += slopes[n, 1, j] * qj
+            for j in range(ne):
+                sx, sy = slopes[n, 0, j], slopes[n, 1, j]
+                generalized[elastic[b, j]] += -sy * l0 + sx * l1 + (sy * gx - sx * gy) * l2
 
 
 def _linear_weights(stations, at):
