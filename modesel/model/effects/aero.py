@@ -47,8 +47,18 @@ Needs [effects.wind]. At every right-hand side:
 5. Loads: f = f_n e_n + f_t e_t per unit length at the stations,
    interpolated linearly in span to the blade's quadrature nodes and
    multiplied by the node quadrature weights w_k [m]: node force
-   F_k = f(s_k) w_k, applied at the deflected node. The sectional pitching
-   moment is not applied (the blades have no torsion DOF).
+   F_k = f(s_k) w_k, applied at the deflected node.
+   Node moments (`node_moments`, AeroDyn -> ElastoDyn as OpenFAST maps
+   them): the sectional pitching moment m = Cm q c^2 per unit length about
+   the annulus z axis of the deflected section, e_z = e_t x e_n (AeroDyn's
+   BEM_Mod 1 BladeLoad moment; with UseBlCm, option `pitching_moment`), and
+   the moment of the forces about the aerodynamic centres' offsets from the
+   blade axis (BlCrvAC, BlSwpAC), lumped like the forces and put on the
+   node the load goes to. The engine applies a node moment through the
+   blade's angular velocity (all rigid coordinates: azimuth, drivetrain,
+   tower, ...); its work on the blade's bending coordinates is added here
+   through ElastoDyn's partial angular velocity of the node (the mode's
+   slope, in the pitched blade frame).
    On ElastoDyn's discrete blade nodes (`elastodyn_nodes`) the node forces
    are the lumped line loads (hat functions) carried by the transpose of
    the linear interpolation along the span (`_lumped_transfer`: total force
@@ -60,8 +70,8 @@ Needs [effects.wind]. At every right-hand side:
    ElastoDyn applies through the node's shape and slope.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
-of node forces along x_s, RtAeroMxh [N m] = sum of their moments about x_s
-through the apex (the loads the structure receives), RtAeroPwr [W],
+of node forces along x_s, RtAeroMxh [N m] = sum of their moments and the
+node moments about x_s through the apex (the loads the structure receives), RtAeroPwr [W],
 RtAeroCp [-]. (ElastoDyn's RotThrust and RotTorq are the shaft loads,
 inertia and weight included: outputs.py.)
 
@@ -204,8 +214,8 @@ class BladeAerodynamics(Effect):
         if self.correction.shape[2]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
         node_moments(fn, ft, self.bem.buffers.out[11].reshape(fn.shape), self.cm_scale, self.en, self.et, R,
-                     self.blades, self.lumping, self.near, self.offset, self.node_slopes, self.elastic, q_all,
-                     self.forces, generalized)
+                     self.blades, self.lumping, self.near, self.offset, self.node_slopes, self.elastic, self.forces,
+                     generalized)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
@@ -423,8 +433,7 @@ def elastic_correction(fn, ft, en, et, R, blades, D, elastic, generalized):
 
 
 @njit(cache=True)
-def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slopes, elastic, q_all, forces,
-                 generalized):
+def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slopes, elastic, forces, generalized):
     """Node moments of the blade loads (module doc, step 5): the line loads
     f_a = f_n,a e_n,a + f_t,a e_t,a [N/m] and the pitching moments cm_scale
     fm_a e_z,a [N m/m] (e_z = e_t x e_n, the annulus z axis of the deflected
@@ -434,10 +443,9 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slope
     near[p] as forces[b, near[p], 3:6] (the engine applies a node moment
     through the body's angular velocity: all rigid coordinates). The blade's
     elastic coordinates j get its work through ElastoDyn's partial angular
-    velocity of the node section, -s_y j_1 + s_x j_2 with s the mode's
-    slope and j_1, j_2 the deflected section axes; in the pitched blade
-    frame, to first order in the deflection slope g = sum_j s_j q_j,
-    (-s_y, s_x, s_y g_x - s_x g_y) (slopes (N, 3, ne) at the nodes)."""
+    velocity of the node (ElastoDyn.f90 PAngVelEM), -s_y j_1 + s_x j_2 with
+    s the mode's slope at the node (slopes (N, 3, ne)) and j_1, j_2 the
+    axes of the pitched blade frame (not the deflected section's)."""
     B = fn.shape[0]
     ne = elastic.shape[1]
     for b in range(B):
@@ -475,15 +483,8 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slope
                 continue
             l0 = Rb[0, 0] * M0 + Rb[1, 0] * M1 + Rb[2, 0] * M2
             l1 = Rb[0, 1] * M0 + Rb[1, 1] * M1 + Rb[2, 1] * M2
-            l2 = Rb[0, 2] * M0 + Rb[1, 2] * M1 + Rb[2, 2] * M2
-            gx = gy = 0.0
             for j in range(ne):
-                qj = q_all[elastic[b, j]]
-                gx += slopes[n, 0, j] * qj
-                gy += slopes[n, 1, j] * qj
-            for j in range(ne):
-                sx, sy = slopes[n, 0, j], slopes[n, 1, j]
-                generalized[elastic[b, j]] += -sy * l0 + sx * l1 + (sy * gx - sx * gy) * l2
+                generalized[elastic[b, j]] += -slopes[n, 1, j] * l0 + slopes[n, 0, j] * l1
 
 
 def _linear_weights(stations, at):

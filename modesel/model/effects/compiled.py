@@ -180,7 +180,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     om += 3 * K
     nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
     node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, near, moff, nslopes,
-                 elastic, q_all, forces, gen)
+                 elastic, forces, gen)
     for b in range(B):
         s = starts[b]
         for i in range(N):
