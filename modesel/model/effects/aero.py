@@ -5,6 +5,7 @@ Pitt-Peters skew; the work of the loads, eq. 52, enters as node forces).
     [effects.aero]
     aerodyn = "path/to/AeroDyn.dat"   # default for the built-in nrel5mw: its bundled deck
     skew = true                       # Pitt-Peters (default: the deck's SkewMod)
+    pitching_moment = true            # Cm q c^2 as node moments (default: the deck's UseBlCm)
 
 Needs [effects.wind]. At every right-hand side:
 
