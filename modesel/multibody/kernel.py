@@ -457,7 +457,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
         # the beam axis, through the torsion shapes eta (t = [0, e_g, eta]); the
         # bodies carry no bending slopes, so the bending part of a node moment
         # (m_k . (e_axis x dPhi_k/ds)) is the loading effect's own generalised
-        # force (effects/aero.py `moment_work`)
+        # force (effects/aero.py `node_moments`)
         for k in range(N):
             _mtv(R, fnodes[a0 + k, 3:6], fk)
             for i in range(3):
