@@ -360,28 +360,71 @@ def _line2_lumping(span):
     return Lmp
 
 
-def _nearest_nodes(line, nodes, structural):
-    """(M,) the structural node (index into `nodes`, span [m] on the blade
-    axis) nearest to each station of `line` (M, 3), as OpenFAST's point-to-
-    point mapping pairs them."""
+def _nearest_nodes(points, nodes, structural):
+    """(P,) the structural node (index into `nodes`, span [m] on the blade
+    axis) nearest to each of `points` (P, 3), as OpenFAST's point-to-point
+    mapping pairs them."""
     idx = np.flatnonzero(structural)
     node_pos = np.zeros((len(idx), 3))
     node_pos[:, 2] = np.asarray(nodes, float)[idx]
-    return idx[np.argmin(np.linalg.norm(np.asarray(line, float)[:, None, :] - node_pos[None, :, :], axis=2),
+    return idx[np.argmin(np.linalg.norm(np.asarray(points, float)[:, None, :] - node_pos[None, :, :], axis=2),
                          axis=1)].astype(np.int64)
+
+
+#: ModMesh's shortest element of an augmented line2 mesh [m]
+_MIN_ELEMENT = 1.0e-3
+
+
+def _augmented_line(line, nodes, structural):
+    """OpenFAST's augmented source mesh of a line2-to-point load mapping
+    (ModMesh_Mapping Create_Augmented_Ln2_Src_Mesh): every element of the
+    AeroDyn line (M, 3) is split where a structural node (0, 0, z_n)
+    projects inside it, so the line load is lumped on the union of the
+    stations and the nodes' projections. Returns (points (P, 3), I (P, M):
+    the linear interpolation of station values to the points, near (P,):
+    each point's nearest structural node)."""
+    line = np.asarray(line, float)
+    z = np.asarray(nodes, float)[np.flatnonzero(structural)]
+    cuts = [[] for _ in range(len(line) - 1)]
+    for zn in z:
+        p = np.array([0.0, 0.0, zn])
+        for k in range(len(line) - 1):
+            e = line[k + 1] - line[k]
+            xi = float((p - line[k]) @ e / (e @ e))
+            if 1e-6 < xi < 1.0 - 1e-6:
+                cuts[k].append(xi)
+    rows, points = [], []
+    for k in range(len(line) - 1):
+        length = np.linalg.norm(line[k + 1] - line[k])
+        kept = [0.0]
+        for xi in sorted(cuts[k]):
+            if (xi - kept[-1]) * length >= _MIN_ELEMENT and (1.0 - xi) * length >= _MIN_ELEMENT:
+                kept.append(xi)
+        for xi in kept:
+            w = np.zeros(len(line))
+            w[k], w[k + 1] = 1.0 - xi, xi
+            rows.append(w)
+            points.append((1.0 - xi) * line[k] + xi * line[k + 1])
+    w = np.zeros(len(line))
+    w[-1] = 1.0
+    rows.append(w)
+    points.append(line[-1])
+    points = np.array(points)
+    return points, np.array(rows), _nearest_nodes(points, nodes, structural)
 
 
 def _elastodyn_moment_points(line, nodes, structural):
     """(L, near, offset) of `node_moments` for ElastoDyn's nodes: the line
-    loads lumped to the stations (`_line2_lumping`), each station's load
-    carried to its nearest structural node, offset (M, 3) = (BlCrvAC,
-    BlSwpAC, 0): the part of the station's offset from that node whose
+    loads lumped to the points of OpenFAST's augmented line
+    (`_augmented_line`, `_line2_lumping`; L (P, M) per unit station load),
+    each point's load carried to its nearest structural node, offset (P, 3)
+    = the point's (x, y, 0): the part of its offset from that node whose
     moment the node forces lack (the spanwise part is carried by the node
     forces' rigid-exact transfer and `_elastodyn_correction`)."""
-    line = np.asarray(line, float)
-    offset = np.zeros_like(line)
-    offset[:, :2] = line[:, :2]
-    return _line2_lumping(line[:, 2]), _nearest_nodes(line, nodes, structural), offset
+    points, I, near = _augmented_line(line, nodes, structural)
+    offset = np.zeros_like(points)
+    offset[:, :2] = points[:, :2]
+    return _line2_lumping(points[:, 2]) @ I, near, offset
 
 
 def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
@@ -391,28 +434,27 @@ def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     Q_j = sum_b f_b . D[b, :, j] (f in the pitched blade frame).
 
     OpenFAST maps AeroDyn's line2 loads to ElastoDyn's point mesh
-    (ModMesh_Mapping Lump_Line2_to_Point, then point to point): the line load,
-    linear between stations, is lumped to point forces F_a (hat functions)
+    (ModMesh_Mapping Transfer_Line2_to_Point): the line, split at the
+    structural nodes' projections (`_augmented_line`), carries the line load
+    interpolated linearly; it is lumped to point forces F_p (hat functions)
     and, per element of length h with end loads f_1, f_2, end moments
     +-(h^2/12) z x (f_1 + f_2); each point load goes to the *nearest*
-    structural node n with the moment of its offset, (r_a - r_n) x F_a.
+    structural node n with the moment of its offset, (r_p - r_n) x F_p.
     ElastoDyn applies a node force through the node's displacement shape
     and a node moment through its rotation (the slopes: a moment M does the
     work M . (z x s_j)). line (M, 3): station positions in the blade frame;
     nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
     their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
-    line = np.asarray(line, float)
-    near = _nearest_nodes(line, nodes, structural)
-    dz = line[:, 2] - np.asarray(nodes, float)[near]
+    points, I, near = _augmented_line(line, nodes, structural)
+    dz = points[:, 2] - np.asarray(nodes, float)[near]
     # rotation of node n per unit coordinate: theta = z x s, so (dz z x F) . theta = dz F . s
-    virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (M, 3, ne)
-    h = np.diff(line[:, 2])
-    Lmp = _line2_lumping(line[:, 2])
-    D = np.einsum("ab,aij->bij", Lmp, virtual) - np.einsum("ib,ikj->bkj", T, phi)
+    virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (P, 3, ne)
+    h = np.diff(points[:, 2])
+    LI = _line2_lumping(points[:, 2]) @ I
+    D = np.einsum("pa,pij->aij", LI, virtual) - np.einsum("ib,ikj->bkj", T, phi)
     for k, hk in enumerate(h):     # element end moments: (h^2/12) (f_1 + f_2) . (s(n_1) - s(n_2))
         ds = (hk * hk / 12.0) * (slopes[near[k]] - slopes[near[k + 1]])
-        D[k] += ds
-        D[k + 1] += ds
+        D += (I[k] + I[k + 1])[:, None, None] * ds[None]
     return D
 
 
