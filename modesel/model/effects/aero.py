@@ -65,10 +65,12 @@ Needs [effects.wind]. At every right-hand side:
    the linear interpolation along the span (`_lumped_transfer`: total force
    and moment kept, so the rigid-body loads are exact), and the blade's
    elastic coordinates get the generalised forces of OpenFAST's mapping
-   instead (`_elastodyn_correction`, `elastic_correction`): each lumped
-   point load moved to the nearest ElastoDyn node with the moment of its
-   offset and the element end moments of ModMesh's lumping, which
-   ElastoDyn applies through the node's shape and slope.
+   instead (`_elastodyn_correction`, `elastic_correction`): the AeroDyn line
+   split where the ElastoDyn nodes project onto it (ModMesh's augmented
+   mesh, `_augmented_line`), the line load lumped on it, each lumped point
+   load moved to the nearest ElastoDyn node with the moment of its offset,
+   and the element end moments of ModMesh's lumping, which ElastoDyn
+   applies through the node's shape and slope.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
 of node forces along x_s, RtAeroMxh [N m] = sum of their moments and the
