@@ -429,7 +429,8 @@ def test_rated_wind_tower_base_moment_balances(rated_run):
 def test_root_moment_equals_newton_euler_sum(rated):
     """RootMyc1 (reaction row of the virtual root rotation) equals the
     Newton-Euler sum over blade 1's nodes of (p - root) x (F_aero + m g - m a)
-    about y_c, with node accelerations by central differences in time."""
+    + M_aero (the node moments) about y_c, with node accelerations by central
+    differences in time."""
     b, q, qd = rated
     t0 = 0.4
     M, F = b.M_F(t0, q, qd)
@@ -451,9 +452,10 @@ def test_root_moment_equals_newton_euler_sum(rated):
     q_all, qd_all = state_at(b, t0, q, qd)
     _, nodes = b.loads(t0, q_all, qd_all)
     body = eq.system.body("blade1")
-    force = nodes["blade1"] + body.node_mass[:, None] * (np.array([0, 0, -eq.system.gravity]) - acc)
+    loads = nodes["blade1"]                 # node forces and the aero's node moments (N, 6)
+    force = loads[:, :3] + body.node_mass[:, None] * (np.array([0, 0, -eq.system.gravity]) - acc)
     yc = frame.R[:, 1]                      # pitch 0: the blade frame's y is the coned y_c
-    newton_euler = np.sum(np.cross(pos - frame.r, force) @ yc)
+    newton_euler = np.sum(np.cross(pos - frame.r, force) @ yc) + np.sum(loads[:, 3:6] @ yc)
     assert root_myc == pytest.approx(newton_euler, rel=2e-4)
 
 

@@ -217,7 +217,8 @@ def kane_pairs(eq, rng, what):
     for k in range(2):
         q, qd = random_state(eq, rng)
         gen = rng.normal(size=eq.n_all) * 1e3
-        nodes = {b.name: rng.normal(size=(len(b.node_mass), 3)) * 1e3
+        # node forces [N]; at the second state node moments [N m] too (columns 3-5)
+        nodes = {b.name: rng.normal(size=(len(b.node_mass), 3 * (k + 1))) * 1e3
                  for b in eq.system.flexible_bodies()}
         M, F = eq.evaluate_full(q, qd, nodes, gen)
         Mr, Fr = eq.evaluate_full_reference(q, qd, nodes, gen)
@@ -369,3 +370,43 @@ def test_twins_agree(name):
         assert reference.shape == got.shape, (what, reference.shape, got.shape)
         err, scale = np.abs(got - reference).max(), np.abs(reference).max()
         assert err <= REL * scale, f"{halves} {what}: difference {err:.2e}, reference scale {scale:.2e}"
+
+
+def test_node_moment_work():
+    """A node moment m does the work m . w_r of the body's partial angular
+    velocity w_r (Kane): on a blade, about the shaft axis for the azimuth and
+    the drivetrain twist (independent of both numerical halves above: the
+    kinematics give the hub's x axis), and on the tower, about its axis, the
+    torsion shapes; none through a blade's bending coordinates (the loading
+    effect adds that part, effects/aero.py `node_moments`)."""
+    built = turbine_built()
+    eq = built.eq
+    rng = np.random.default_rng(7)
+    q, qd = random_state(eq, rng)
+    states = eq.kinematics(q, qd)
+    x_shaft = states[eq.body_index["hub"]].R[:, 0]
+    m = np.array([2.0e4, -1.0e4, 3.0e4])
+    blade = eq.system.body("blade1")
+    loads = np.zeros((len(blade.node_mass), 6))
+    loads[5, 3:] = m
+    for evaluate in (eq.evaluate_full, eq.evaluate_full_reference):
+        _, F0 = evaluate(q, qd)
+        _, F1 = evaluate(q, qd, {"blade1": loads})
+        dF = F1 - F0
+        for name in ("GeAz", "DrTr"):
+            assert dF[eq.index[name]] == pytest.approx(m @ x_shaft, rel=1e-9)
+        for name in blade.dofs:
+            assert abs(dF[eq.index[name]]) < 1e-9 * np.linalg.norm(m)
+    # the tower: a moment about the tower's (deflected-frame) axis works through its torsion shape
+    tower = eq.system.body("tower")
+    R_t = states[eq.body_index["tower"]].R
+    k = len(tower.node_mass) - 1
+    loads = np.zeros((len(tower.node_mass), 6))
+    loads[k, 3:] = 5.0e3 * (R_t @ np.asarray(tower.axis, float))
+    eta = np.asarray(tower.torsion, float)[k]
+    assert np.abs(eta).max() > 0
+    for evaluate in (eq.evaluate_full, eq.evaluate_full_reference):
+        _, F0 = evaluate(q, qd)
+        _, F1 = evaluate(q, qd, {"tower": loads})
+        for j, name in enumerate(tower.dofs):
+            assert (F1 - F0)[eq.index[name]] == pytest.approx(5.0e3 * eta[j], rel=1e-9, abs=1e-6)

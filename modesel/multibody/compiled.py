@@ -46,7 +46,7 @@ class CompiledRHS:
         n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
         self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
                      eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
-                     np.zeros((n_nodes, 3)), np.zeros(eq.n_bodies, np.int64),
+                     np.zeros((n_nodes, 6)), np.zeros(eq.n_bodies, np.int64),
                      _loads_tuple(loads))
         self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
         self.n_free = nf
@@ -86,7 +86,8 @@ class CompiledRHS:
 
     def full(self, q_all, qd_all, generalized=None, node_forces=None):
         """M (n_all x n_all) and F (n_all) at all coordinates; node_forces
-        {flexible body name: (N, 3) inertial forces [N]}."""
+        {flexible body name: (N, 3) inertial forces [N], or (N, 6) forces and
+        moments [N m] (`KaneEquations`)}."""
         n = self.eq.n_all
         gen = np.zeros(n) if generalized is None else np.asarray(generalized, float)
         fnodes, flag = np.zeros_like(self.prob[7]), np.zeros_like(self.prob[8])
@@ -94,7 +95,7 @@ class CompiledRHS:
             fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
             for name, f in node_forces.items():
                 first, count = self.packed.node_start[name]
-                fnodes[first:first + count] = f
+                fnodes[first:first + count, :np.shape(f)[1]] = f
                 flag[self.eq.body_index[name]] = 1
         M, F = np.empty((n, n)), np.empty(n)
         p = self.packed

@@ -122,7 +122,11 @@ class KaneEquations:
     `evaluate(q, qd, t)` takes the *free* coordinates and returns (M, F)
     restricted to them; `evaluate_full` works on all coordinates.
     External loads: `node_forces` {body name: (N, 3) inertial-frame forces
-    on the flexible body's nodes [N]} and `generalized` (n_all,) forces [N or N m]
+    on the flexible body's nodes [N], or (N, 6): forces and node moments
+    [N m], which do work through the body's angular velocity and, about its
+    axis, its torsion shapes; the bodies carry no bending slopes, so the
+    bending part of a node moment is the loading effect's generalised
+    force} and `generalized` (n_all,) forces [N or N m]
     added to the right-hand side (eq. 9-10, 19).
 
     Public attributes: `names`, `index` (coordinate name -> position),
@@ -309,8 +313,12 @@ class KaneEquations:
                    + acc_loc @ R.T)
         m = f.m
         load = m[:, None] * (g - a_nodes)
+        moments = None
         if fnodes is not None:
-            load = load + fnodes
+            fnodes = np.asarray(fnodes, float)
+            load = load + fnodes[:, 0:3]
+            if fnodes.shape[1] == 6:
+                moments = fnodes[:, 3:6]
         # generalised body mass matrix (A2-A7) in y = [v; w; qd_e]
         mp = m @ p
         Mb = np.zeros((6 + ne, 6 + ne))
@@ -321,6 +329,8 @@ class KaneEquations:
         fy = np.zeros(6 + ne)
         fy[0:3] = load.sum(axis=0)
         fy[3:6] = cross(p, load).sum(axis=0)
+        if moments is not None:                      # node moments: work through w (and torsion)
+            fy[3:6] += moments.sum(axis=0)
         if ne:
             mB = m[:, None, None] * B
             Ct = mB.sum(axis=0)                                             # (3,ne)  C_t^T
@@ -331,6 +341,8 @@ class KaneEquations:
             Mb[6:, 3:6] = Cr.T
             Mb[6:, 6:] = np.einsum("kil,kim->lm", mB, B)
             fy[6:] = np.einsum("kil,ki->l", B, load) - f.K @ q[f.idx] - f.D @ qde      # eq. A16-A19
+            if moments is not None and f.eta is not None:
+                fy[6:] += (moments @ (R @ f.axis)) @ f.eta
         if f.Jp is not None and np.any(f.Jp):
             eg = R @ f.axis
             t = np.zeros((len(m), 6 + ne))

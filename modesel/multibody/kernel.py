@@ -58,9 +58,10 @@ N_FLOAT = 40
 # signature of a loads function (the effects' loads inside the compiled loop):
 # (t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state) -> status;
 # R, vec: the body frames of `kinematics` at (q_all, qd_all); it adds
-# generalised forces to gen (n_all,) [N, N m] and inertial node forces [N] to
-# fnodes (rows of the packed node layout), setting fflag[b] = 1 for each body it
-# loads (fnodes and fflag are zero on entry); ints, floats: its packed
+# generalised forces to gen (n_all,) [N, N m] and inertial node loads to
+# fnodes (rows of the packed node layout; columns 0-2 the force [N], 3-5 the
+# moment [N m]: `_add_node_forces`, `_flexible`), setting fflag[b] = 1 for each
+# body it loads (fnodes and fflag are zero on entry); ints, floats: its packed
 # parameters; state: its scratch and latched state. Status OK or NON_FINITE_ACC.
 # It must be a numba cfunc (typed as a first-class function, so the loop that
 # calls it is compiled once for every scene and cached); a problem without
@@ -294,7 +295,9 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
 
 @njit(cache=True)
 def _add_node_forces(b, fnodes, data, work, fy):
-    """fy += [sum f_k; sum p_k x f_k] for the nodes of a body without elastic DOFs."""
+    """fy += [sum f_k; sum (p_k x f_k + m_k)] for the nodes of a body without
+    elastic DOFs (node forces f_k and moments m_k, inertial: fnodes[k, 0:3],
+    fnodes[k, 3:6]; a moment does work through the body's angular velocity)."""
     bi, s0 = data[0], data[8]
     R = work[0][b]
     pk = work[10][5]
@@ -305,7 +308,7 @@ def _add_node_forces(b, fnodes, data, work, fy):
         mk = _cross(pk[0], pk[1], pk[2], f[0], f[1], f[2])
         for i in range(3):
             fy[i] += f[i]
-            fy[3 + i] += mk[i]
+            fy[3 + i] += mk[i] + f[3 + i]
 
 
 @njit(cache=True, fastmath=_FAST)
@@ -386,7 +389,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
         c3 = _cross(wb[0], wb[1], wb[2], c2[0], c2[1], c2[2])
         c4 = _cross(wb[0], wb[1], wb[2], pdv[3 * k], pdv[3 * k + 1], pdv[3 * k + 2])
         if fflag[b]:
-            _mtv(R, fnodes[a0 + k], fk)
+            _mtv(R, fnodes[a0 + k, 0:3], fk)
         else:
             fk[0] = fk[1] = fk[2] = 0.0
         for i in range(3):
@@ -449,6 +452,21 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
                     fe[l] -= jp * eal * el
                     for m_ in range(ne):
                         Mee[l, m_] += jp * el * eta[k, m_]
+    if fflag[b]:
+        # node moments m_k: work through the body's angular velocity and, about
+        # the beam axis, through the torsion shapes eta (t = [0, e_g, eta]); the
+        # bodies carry no bending slopes, so the bending part of a node moment
+        # (m_k . (e_axis x dPhi_k/ds)) is the loading effect's own generalised
+        # force (effects/aero.py `node_moments`)
+        for k in range(N):
+            _mtv(R, fnodes[a0 + k, 3:6], fk)
+            for i in range(3):
+                fr[i] += fk[i]
+            if has_eta:
+                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
+                ma = fk[0] * ax[0] + fk[1] * ax[1] + fk[2] * ax[2]
+                for l in range(ne):
+                    fe[l] += ma * eta[k, l]
     # elastic forces (A16-A19)
     KD = fpool[bi[b, KD0]:bi[b, KD0] + 2 * ne * ne].reshape((2, ne, ne))
     for l in range(ne):

@@ -47,6 +47,8 @@ class AeroDynDeck:
         SkewRedistrFactor (OpenFAST 4).
     tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd, or None if absent.
     tower_aero : TwrAero flag (apply tower drag).
+    pitching_moment : UseBlCm flag (apply the sectional pitching moment
+        Cm q c^2; AeroDyn's default True where the file has no UseBlCm).
     notes : one sentence per documented default or fallback applied.
     """
 
@@ -57,6 +59,7 @@ class AeroDynDeck:
     bem: BemOptions = field(default_factory=BemOptions)
     tower: TowerDrag | None = None
     tower_aero: bool = False
+    pitching_moment: bool = True
     source: str | None = None
     notes: tuple = field(default_factory=tuple)
 
@@ -81,6 +84,7 @@ def _openfast_io_main(path: str) -> dict:
                                     "TanInd", "AIDrag", "TIDrag", "TwrAero", "NumAFfiles",
                                     "InCol_Alfa", "InCol_Cl", "InCol_Cd", "InCol_Cm")}
     out["SkewCorr"] = ad.get("Skew_Mod") == 1 and ad.get("SkewRedistr_Mod") == 1
+    out["UseBlCm"] = ad.get("UseBlCm", True)
     out["SkewModFactor"] = ad.get("SkewRedistrFactor", "default")
     out["AFNames"] = list(ad["AFNames"])
     out["ADBlFile"] = [ad[f"ADBlFile{i}"] for i in (1, 2, 3)]
@@ -114,7 +118,7 @@ def _keyword_main(path: str) -> dict:
                 "InCol_Cm"):
         out[key] = _by_keyword(lines, key, path)[1]
     found = {}
-    for key in ("SkewMod", "Skew_Mod", "SkewRedistr_Mod", "SkewModFactor", "SkewRedistrFactor"):
+    for key in ("SkewMod", "Skew_Mod", "SkewRedistr_Mod", "SkewModFactor", "SkewRedistrFactor", "UseBlCm"):
         try:
             found[key] = _by_keyword(lines, key, path)[1]
         except ModeselError:
@@ -124,6 +128,7 @@ def _keyword_main(path: str) -> dict:
     else:  # OpenFAST 4 layout
         out["SkewCorr"] = found.get("Skew_Mod") == "1" and found.get("SkewRedistr_Mod", "1") == "1"
     out["SkewModFactor"] = found.get("SkewModFactor", found.get("SkewRedistrFactor", "default"))
+    out["UseBlCm"] = found.get("UseBlCm", "True")
     n_af = int(out["NumAFfiles"])
     first, _ = _by_keyword(lines, "AFNames", path)
     out["AFNames"] = [lines[first + k][0].strip('"\'') for k in range(n_af)]
@@ -247,6 +252,7 @@ def _read_aerodyn(path) -> AeroDynDeck:
             skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes)),
         tower=tower,
         tower_aero=_flag(main["TwrAero"], path, "TwrAero"),
+        pitching_moment=_flag(main["UseBlCm"], path, "UseBlCm"),
         source=path,
         notes=tuple(notes),
     )
@@ -279,12 +285,8 @@ def aerodyn_case_options(path) -> dict:
     AeroDyn's ADTwr_CalcOutput (1/2 rho Cd d |V_n| V_n with V_n the
     relative wind normal to the tower). TipLoss, HubLoss, TanInd, AIDrag,
     TIDrag, SkewRedistrFactor and the polars are read by `read_aerodyn`.
-    UseBlCm: the sectional pitching moment is not applied (modesel's
-    blades have no torsion, and its loads carry no moments; recorded in the
-    notes). About the deflected section axis it has a component about the
-    shaft: -0.49 % of the aerodynamic rotor torque at 11.4 m/s in OpenFAST,
-    offset in modesel by the likewise missing moment of the forces about
-    the aerodynamic centres' offsets from the pitch axis (+0.46 %).
+    UseBlCm -> the sectional pitching moment (`AeroDynDeck.pitching_moment`,
+    applied by the aero effect as node moments).
     """
     from modesel.turbine.openfast_inputs import InputFile
     f = InputFile(path, "AeroDyn")
@@ -328,9 +330,5 @@ def aerodyn_case_options(path) -> dict:
                         ("CompAA", "aeroacoustics")):
         if label in f and f.flag(label):
             raise f.unsupported(label, what)
-    if "UseBlCm" in f and f.flag("UseBlCm"):
-        notes.append(f"{f.path.name}: UseBlCm = True, but modesel applies no sectional pitching moment "
-                     f"(its blades have no torsion; about the shaft it is ~-0.5 % of the aerodynamic torque, "
-                     f"offset by the moment of the aerodynamic-centre offsets, which modesel omits too).")
     return {"skew": skew, "tower_drag": f.flag("TwrAero"),
             "air_density_default": f.string("AirDens").lower() == "default", "notes": notes}

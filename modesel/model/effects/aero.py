@@ -5,6 +5,7 @@ Pitt-Peters skew; the work of the loads, eq. 52, enters as node forces).
     [effects.aero]
     aerodyn = "path/to/AeroDyn.dat"   # default for the built-in nrel5mw: its bundled deck
     skew = true                       # Pitt-Peters (default: the deck's SkewMod)
+    pitching_moment = true            # Cm q c^2 as node moments (default: the deck's UseBlCm)
 
 Needs [effects.wind]. At every right-hand side:
 
@@ -47,21 +48,33 @@ Needs [effects.wind]. At every right-hand side:
 5. Loads: f = f_n e_n + f_t e_t per unit length at the stations,
    interpolated linearly in span to the blade's quadrature nodes and
    multiplied by the node quadrature weights w_k [m]: node force
-   F_k = f(s_k) w_k, applied at the deflected node. The sectional pitching
-   moment is not applied (the blades have no torsion DOF).
+   F_k = f(s_k) w_k, applied at the deflected node.
+   Node moments (`node_moments`, AeroDyn -> ElastoDyn as OpenFAST maps
+   them): the sectional pitching moment m = Cm q c^2 per unit length about
+   the annulus z axis of the deflected section, e_z = e_t x e_n (AeroDyn's
+   BEM_Mod 1 BladeLoad moment; with UseBlCm, option `pitching_moment`), and
+   the moment of the forces about the aerodynamic centres' offsets from the
+   blade axis (BlCrvAC, BlSwpAC), lumped like the forces and put on the
+   node the load goes to. The engine applies a node moment through the
+   blade's angular velocity (all rigid coordinates: azimuth, drivetrain,
+   tower, ...); its work on the blade's bending coordinates is added here
+   through ElastoDyn's partial angular velocity of the node (the mode's
+   slope, in the pitched blade frame).
    On ElastoDyn's discrete blade nodes (`elastodyn_nodes`) the node forces
    are the lumped line loads (hat functions) carried by the transpose of
    the linear interpolation along the span (`_lumped_transfer`: total force
    and moment kept, so the rigid-body loads are exact), and the blade's
    elastic coordinates get the generalised forces of OpenFAST's mapping
-   instead (`_elastodyn_correction`, `elastic_correction`): each lumped
-   point load moved to the nearest ElastoDyn node with the moment of its
-   offset and the element end moments of ModMesh's lumping, which
-   ElastoDyn applies through the node's shape and slope.
+   instead (`_elastodyn_correction`, `elastic_correction`): the AeroDyn line
+   split where the ElastoDyn nodes project onto it (ModMesh's augmented
+   mesh, `_augmented_line`), the line load lumped on it, each lumped point
+   load moved to the nearest ElastoDyn node with the moment of its offset,
+   and the element end moments of ModMesh's lumping, which ElastoDyn
+   applies through the node's shape and slope.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
-of node forces along x_s, RtAeroMxh [N m] = sum of their moments about x_s
-through the apex (the loads the structure receives), RtAeroPwr [W],
+of node forces along x_s, RtAeroMxh [N m] = sum of their moments and the
+node moments about x_s through the apex (the loads the structure receives), RtAeroPwr [W],
 RtAeroCp [-]. (ElastoDyn's RotThrust and RotTorq are the shaft loads,
 inertia and weight included: outputs.py.)
 
@@ -118,6 +131,7 @@ class BladeAerodynamics(Effect):
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
         "air_density": Option("number", None, "air density [kg/m^3] (default: the deck's)", positive=True),
+        "pitching_moment": Option("bool", None, "sectional pitching moment Cm q c^2 (default: the deck's UseBlCm)"),
     }
 
     def setup(self, built):
@@ -155,18 +169,27 @@ class BladeAerodynamics(Effect):
         self.theta = np.empty((B, M))
         nodes_span = self.nodes[0].s0[:, 2]
         self.weights = np.asarray(model.weights[self.names[0]], float)
-        self.elastic = np.zeros((B, 0), dtype=np.int64)
+        self.elastic = np.array([st.idx for st in self.stations], dtype=np.int64).reshape(B, -1)
+        line = deck.blade.reference_line()
+        self.node_slopes = np.ascontiguousarray(model.station_slopes(self.names[0], nodes_span))
+        self.correction = np.zeros((M, 3, 0))
         if model.blade_elastodyn_nodes:
             self.transfer = _lumped_transfer(span, nodes_span, self.weights > 0)
             structural = self.weights > 0
             body = eq.system.body(self.names[0])
             phi = np.asarray(body.shapes, float)
-            slopes = model.station_slopes(self.names[0], nodes_span)
             self.correction = np.ascontiguousarray(_elastodyn_correction(
-                deck.blade.reference_line(), nodes_span, phi, slopes, structural, self.transfer))
-            self.elastic = np.array([st.idx for st in self.stations], dtype=np.int64)
+                line, nodes_span, phi, self.node_slopes, structural, self.transfer))
+            self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
         else:
             self.transfer = _sampled_transfer(span, nodes_span, self.weights)
+            self.lumping = self.transfer
+            self.near = np.arange(len(nodes_span), dtype=np.int64)
+            self.offset = np.zeros((len(nodes_span), 3))
+            for c in range(2):
+                self.offset[:, c] = np.interp(nodes_span, span, line[:, c])
+        use_cm = deck.pitching_moment if self.options["pitching_moment"] is None else self.options["pitching_moment"]
+        self.cm_scale = 1.0 if use_cm else 0.0
         self.hub = eq.body_index["hub"]
         self.blades = np.array([eq.body_index[n] for n in self.names], dtype=np.int64)
         self.pitch = model.pitch
@@ -176,7 +199,7 @@ class BladeAerodynamics(Effect):
         self.vn, self.vt, self.skew, self.psi = (np.empty((B, M)) for _ in range(4))
         self.en = np.empty((B, M, 3))
         self.et = np.empty((B, M, 3))
-        self.forces = np.empty((B, len(nodes_span), 3))
+        self.forces = np.empty((B, len(nodes_span), 6))     # node forces [N], moments [N m]
         self.rmax = float(np.max((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None]))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
@@ -191,8 +214,11 @@ class BladeAerodynamics(Effect):
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
                           self.theta)
         distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
-        if self.elastic.shape[1]:
+        if self.correction.shape[2]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
+        node_moments(fn, ft, self.bem.buffers.out[11].reshape(fn.shape), self.cm_scale, self.en, self.et, R,
+                     self.blades, self.lumping, self.near, self.offset, self.node_slopes, self.elastic, self.forces,
+                     generalized)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
@@ -217,12 +243,16 @@ class BladeAerodynamics(Effect):
         static_loss = s.loss is not None
         o_loss = packer.add(np.concatenate([buf.c_tip.ravel(), buf.c_hub.ravel()])) if static_loss else 0
         ne_el = self.elastic.shape[1]
-        o_corr = packer.add(self.correction) if ne_el else 0
-        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 3)
+        has_corr = self.correction.shape[2] > 0
+        o_corr = packer.add(self.correction) if has_corr else 0
+        K = len(self.near)
+        o_mom = packer.add(np.concatenate([[self.cm_scale], self.lumping.ravel(), self.offset.ravel(),
+                                           self.node_slopes.ravel()]))
+        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
-                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el]
+                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
-        ints += list(np.asarray(self.elastic, np.int64).ravel())
+        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
@@ -271,13 +301,15 @@ class StationBem:
 
 @njit(cache=True)
 def rotor_loads(forces, pos, R_hub, apex):
-    """(thrust along the shaft x_s, torque about it through the apex) of node forces."""
+    """(thrust along the shaft x_s, torque about it through the apex) of node
+    forces (columns 0-2) and node moments (3-5)."""
     thrust = 0.0
     torque = 0.0
     for i in range(forces.shape[0]):
         f = forces[i]
         d0, d1, d2 = pos[i, 0] - apex[0], pos[i, 1] - apex[1], pos[i, 2] - apex[2]
         m0, m1, m2 = d1 * f[2] - d2 * f[1], d2 * f[0] - d0 * f[2], d0 * f[1] - d1 * f[0]
+        m0, m1, m2 = m0 + f[3], m1 + f[4], m2 + f[5]
         thrust += f[0] * R_hub[0, 0] + f[1] * R_hub[1, 0] + f[2] * R_hub[2, 0]
         torque += m0 * R_hub[0, 0] + m1 * R_hub[1, 0] + m2 * R_hub[2, 0]
     return thrust, torque
@@ -301,13 +333,7 @@ def _lumped_transfer(stations, at, structural):
     `structural` nodes' positions to the stations (end elements extrapolated),
     so sum_i W[i, a] = 1 and sum_i W[i, a] z_i = z_a."""
     stations = np.asarray(stations, float)
-    h = np.diff(stations)
-    Lmp = np.zeros((len(stations), len(stations)))
-    for k, hk in enumerate(h):
-        Lmp[k, k] += hk / 3.0
-        Lmp[k, k + 1] += hk / 6.0
-        Lmp[k + 1, k + 1] += hk / 3.0
-        Lmp[k + 1, k] += hk / 6.0
+    Lmp = _line2_lumping(stations)
     idx = np.flatnonzero(structural)
     z = np.asarray(at, float)[idx]
     W = np.zeros((len(at), len(stations)))
@@ -322,6 +348,87 @@ def _lumped_transfer(stations, at, structural):
     return W @ Lmp
 
 
+def _line2_lumping(span):
+    """(M, M) matrix L of ModMesh's lumping of a line load, linear between
+    the stations `span`, to point loads at the stations: F_a = sum_b L[a, b]
+    f_b, over the two adjacent elements h (2 f_a + f_b) / 6."""
+    h = np.diff(np.asarray(span, float))
+    Lmp = np.zeros((len(h) + 1, len(h) + 1))
+    for k, hk in enumerate(h):
+        Lmp[k, k] += hk / 3.0
+        Lmp[k, k + 1] += hk / 6.0
+        Lmp[k + 1, k + 1] += hk / 3.0
+        Lmp[k + 1, k] += hk / 6.0
+    return Lmp
+
+
+def _nearest_nodes(points, nodes, structural):
+    """(P,) the structural node (index into `nodes`, span [m] on the blade
+    axis) nearest to each of `points` (P, 3), as OpenFAST's point-to-point
+    mapping pairs them."""
+    idx = np.flatnonzero(structural)
+    node_pos = np.zeros((len(idx), 3))
+    node_pos[:, 2] = np.asarray(nodes, float)[idx]
+    return idx[np.argmin(np.linalg.norm(np.asarray(points, float)[:, None, :] - node_pos[None, :, :], axis=2),
+                         axis=1)].astype(np.int64)
+
+
+#: ModMesh's shortest element of an augmented line2 mesh [m]
+_MIN_ELEMENT = 1.0e-3
+
+
+def _augmented_line(line, nodes, structural):
+    """OpenFAST's augmented source mesh of a line2-to-point load mapping
+    (ModMesh_Mapping Create_Augmented_Ln2_Src_Mesh): every element of the
+    AeroDyn line (M, 3) is split where a structural node (0, 0, z_n)
+    projects inside it, so the line load is lumped on the union of the
+    stations and the nodes' projections. Returns (points (P, 3), I (P, M):
+    the linear interpolation of station values to the points, near (P,):
+    each point's nearest structural node)."""
+    line = np.asarray(line, float)
+    z = np.asarray(nodes, float)[np.flatnonzero(structural)]
+    cuts = [[] for _ in range(len(line) - 1)]
+    for zn in z:
+        p = np.array([0.0, 0.0, zn])
+        for k in range(len(line) - 1):
+            e = line[k + 1] - line[k]
+            xi = float((p - line[k]) @ e / (e @ e))
+            if 1e-6 < xi < 1.0 - 1e-6:
+                cuts[k].append(xi)
+    rows, points = [], []
+    for k in range(len(line) - 1):
+        length = np.linalg.norm(line[k + 1] - line[k])
+        kept = [0.0]
+        for xi in sorted(cuts[k]):
+            if (xi - kept[-1]) * length >= _MIN_ELEMENT and (1.0 - xi) * length >= _MIN_ELEMENT:
+                kept.append(xi)
+        for xi in kept:
+            w = np.zeros(len(line))
+            w[k], w[k + 1] = 1.0 - xi, xi
+            rows.append(w)
+            points.append((1.0 - xi) * line[k] + xi * line[k + 1])
+    w = np.zeros(len(line))
+    w[-1] = 1.0
+    rows.append(w)
+    points.append(line[-1])
+    points = np.array(points)
+    return points, np.array(rows), _nearest_nodes(points, nodes, structural)
+
+
+def _elastodyn_moment_points(line, nodes, structural):
+    """(L, near, offset) of `node_moments` for ElastoDyn's nodes: the line
+    loads lumped to the points of OpenFAST's augmented line
+    (`_augmented_line`, `_line2_lumping`; L (P, M) per unit station load),
+    each point's load carried to its nearest structural node, offset (P, 3)
+    = the point's (x, y, 0): the part of its offset from that node whose
+    moment the node forces lack (the spanwise part is carried by the node
+    forces' rigid-exact transfer and `_elastodyn_correction`)."""
+    points, I, near = _augmented_line(line, nodes, structural)
+    offset = np.zeros_like(points)
+    offset[:, :2] = points[:, :2]
+    return _line2_lumping(points[:, 2]) @ I, near, offset
+
+
 def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     """(M, 3, ne) matrix D: the generalised forces of a blade's elastic
     coordinates as ElastoDyn receives them from AeroDyn, minus those of the
@@ -329,38 +436,27 @@ def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     Q_j = sum_b f_b . D[b, :, j] (f in the pitched blade frame).
 
     OpenFAST maps AeroDyn's line2 loads to ElastoDyn's point mesh
-    (ModMesh_Mapping Lump_Line2_to_Point, then point to point): the line load,
-    linear between stations, is lumped to point forces F_a (hat functions)
+    (ModMesh_Mapping Transfer_Line2_to_Point): the line, split at the
+    structural nodes' projections (`_augmented_line`), carries the line load
+    interpolated linearly; it is lumped to point forces F_p (hat functions)
     and, per element of length h with end loads f_1, f_2, end moments
     +-(h^2/12) z x (f_1 + f_2); each point load goes to the *nearest*
-    structural node n with the moment of its offset, (r_a - r_n) x F_a.
+    structural node n with the moment of its offset, (r_p - r_n) x F_p.
     ElastoDyn applies a node force through the node's displacement shape
     and a node moment through its rotation (the slopes: a moment M does the
     work M . (z x s_j)). line (M, 3): station positions in the blade frame;
     nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
     their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
-    line = np.asarray(line, float)
-    M = len(line)
-    idx = np.flatnonzero(structural)
-    node_pos = np.zeros((len(idx), 3))
-    node_pos[:, 2] = np.asarray(nodes, float)[idx]
-    near = idx[np.argmin(np.linalg.norm(line[:, None, :] - node_pos[None, :, :], axis=2), axis=1)]
-    dz = line[:, 2] - np.asarray(nodes, float)[near]
+    points, I, near = _augmented_line(line, nodes, structural)
+    dz = points[:, 2] - np.asarray(nodes, float)[near]
     # rotation of node n per unit coordinate: theta = z x s, so (dz z x F) . theta = dz F . s
-    virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (M, 3, ne)
-    span = line[:, 2]
-    h = np.diff(span)
-    Lmp = np.zeros((M, M))
-    for k, hk in enumerate(h):
-        Lmp[k, k] += hk / 3.0
-        Lmp[k, k + 1] += hk / 6.0
-        Lmp[k + 1, k + 1] += hk / 3.0
-        Lmp[k + 1, k] += hk / 6.0
-    D = np.einsum("ab,aij->bij", Lmp, virtual) - np.einsum("ib,ikj->bkj", T, phi)
+    virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (P, 3, ne)
+    h = np.diff(points[:, 2])
+    LI = _line2_lumping(points[:, 2]) @ I
+    D = np.einsum("pa,pij->aij", LI, virtual) - np.einsum("ib,ikj->bkj", T, phi)
     for k, hk in enumerate(h):     # element end moments: (h^2/12) (f_1 + f_2) . (s(n_1) - s(n_2))
         ds = (hk * hk / 12.0) * (slopes[near[k]] - slopes[near[k + 1]])
-        D[k] += ds
-        D[k + 1] += ds
+        D += (I[k] + I[k + 1])[:, None, None] * ds[None]
     return D
 
 
@@ -379,6 +475,61 @@ def elastic_correction(fn, ft, en, et, R, blades, D, elastic, generalized):
             f2 = Rb[0, 2] * g0 + Rb[1, 2] * g1 + Rb[2, 2] * g2
             for j in range(D.shape[2]):
                 generalized[elastic[b, j]] += f0 * D[a, 0, j] + f1 * D[a, 1, j] + f2 * D[a, 2, j]
+
+
+@njit(cache=True)
+def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slopes, elastic, forces, generalized):
+    """Node moments of the blade loads (module doc, step 5): the line loads
+    f_a = f_n,a e_n,a + f_t,a e_t,a [N/m] and the pitching moments cm_scale
+    fm_a e_z,a [N m/m] (e_z = e_t x e_n, the annulus z axis of the deflected
+    section, AeroDyn's BEM_Mod 1) lumped to K points, F_p = sum_a L[p, a] f_a
+    and M_p = sum_a L[p, a] m_a, and with the moment of the point's offset
+    from the blade axis, d_p x F_p (d_p = R_blade offset[p]), put on node
+    near[p] as forces[b, near[p], 3:6] (the engine applies a node moment
+    through the body's angular velocity: all rigid coordinates). The blade's
+    elastic coordinates j get its work through ElastoDyn's partial angular
+    velocity of the node (ElastoDyn.f90 PAngVelEM), -s_y j_1 + s_x j_2 with
+    s the mode's slope at the node (slopes (N, 3, ne)) and j_1, j_2 the
+    axes of the pitched blade frame (not the deflected section's)."""
+    B = fn.shape[0]
+    ne = elastic.shape[1]
+    for b in range(B):
+        Rb = R[blades[b]]
+        for i in range(forces.shape[1]):
+            forces[b, i, 3] = 0.0
+            forces[b, i, 4] = 0.0
+            forces[b, i, 5] = 0.0
+        for p in range(L.shape[0]):
+            F0 = F1 = F2 = M0 = M1 = M2 = 0.0
+            for a in range(L.shape[1]):
+                w = L[p, a]
+                if w == 0.0:
+                    continue
+                n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
+                t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
+                F0 += w * (fn[b, a] * n0 + ft[b, a] * t0)
+                F1 += w * (fn[b, a] * n1 + ft[b, a] * t1)
+                F2 += w * (fn[b, a] * n2 + ft[b, a] * t2)
+                m = w * cm_scale * fm[b, a]
+                M0 += m * (t1 * n2 - t2 * n1)
+                M1 += m * (t2 * n0 - t0 * n2)
+                M2 += m * (t0 * n1 - t1 * n0)
+            d0 = Rb[0, 0] * offset[p, 0] + Rb[0, 1] * offset[p, 1] + Rb[0, 2] * offset[p, 2]
+            d1 = Rb[1, 0] * offset[p, 0] + Rb[1, 1] * offset[p, 1] + Rb[1, 2] * offset[p, 2]
+            d2 = Rb[2, 0] * offset[p, 0] + Rb[2, 1] * offset[p, 1] + Rb[2, 2] * offset[p, 2]
+            M0 += d1 * F2 - d2 * F1
+            M1 += d2 * F0 - d0 * F2
+            M2 += d0 * F1 - d1 * F0
+            n = near[p]
+            forces[b, n, 3] += M0
+            forces[b, n, 4] += M1
+            forces[b, n, 5] += M2
+            if ne == 0:
+                continue
+            l0 = Rb[0, 0] * M0 + Rb[1, 0] * M1 + Rb[2, 0] * M2
+            l1 = Rb[0, 1] * M0 + Rb[1, 1] * M1 + Rb[2, 1] * M2
+            for j in range(ne):
+                generalized[elastic[b, j]] += -slopes[n, 1, j] * l0 + slopes[n, 0, j] * l1
 
 
 def _linear_weights(stations, at):

@@ -10,7 +10,7 @@ evaluates them by a dispatch on the effect kind. The physics are the same
 compiled functions the Python path (`Built.M_F`, effects' `__call__`)
 calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
 `effects.aero.station_rotations`/`inflow`/`distribute`/
-`elastic_correction`, `aero.bem.solve_elements`,
+`elastic_correction`/`node_moments`, `aero.bem.solve_elements`,
 `aero.tower_drag.drag_forces`, `effects.generator.switched_torque`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
 sides equal).
@@ -28,7 +28,7 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import distribute, elastic_correction, inflow, station_rotations
+from modesel.model.effects.aero import distribute, elastic_correction, inflow, node_moments, station_rotations
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
@@ -81,20 +81,23 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
     station kinematics and section rotations, inflow, BEM, distribution to the nodes,
-    ElastoDyn's generalised-force correction when packed."""
+    ElastoDyn's generalised-force correction when packed, node moments."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
                                                                 ints[p + 10])
     o_ref, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
                                                           ints[p + 14], ints[p + 15], ints[p + 16])
-    p += 17
+    has_corr, o_mom, K = ints[p + 17], ints[p + 18], ints[p + 19]
+    p += 20
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
     p += 2 * B + B * M
     elastic = ints[p:p + B * ne_el].reshape((B, ne_el))
     p += B * ne_el
+    near = ints[p:p + K]
+    p += K
     o = o_scr
     pos = state[o:o + B * M * 3].reshape((B, M, 3))
     o += B * M * 3
@@ -128,7 +131,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     o += 3
     out = state[o:o + 13 * B * M].reshape((13, B * M))
     o += 13 * B * M
-    forces = state[o:o + B * N * 3].reshape((B, N, 3))
+    forces = state[o:o + B * N * 6].reshape((B, N, 6))
     A = floats[o_ref:o_ref + 9 * M].reshape((M, 3, 3))
     so = o_slopes
     for b in range(B):
@@ -166,13 +169,22 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     fn = out[9].reshape((B, M))
     ft = out[10].reshape((B, M))
     distribute(fn, ft, en, et, T, forces)
-    if ne_el > 0:
+    if has_corr != 0:
         D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
         elastic_correction(fn, ft, en, et, R, blades, D, elastic, gen)
+    cm_scale = floats[o_mom]
+    om = o_mom + 1
+    L = floats[om:om + K * M].reshape((K, M))
+    om += K * M
+    moff = floats[om:om + 3 * K].reshape((K, 3))
+    om += 3 * K
+    nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
+    node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, near, moff, nslopes,
+                 elastic, forces, gen)
     for b in range(B):
         s = starts[b]
         for i in range(N):
-            for k in range(3):
+            for k in range(6):
                 fnodes[s + i, k] += forces[b, i, k]
         fflag[blades[b]] = 1
 
