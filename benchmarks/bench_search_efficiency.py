@@ -67,7 +67,7 @@ def enumerate_space(study):
     table, t0 = {}, time.perf_counter()
     for ms in sets:
         rec = objective.evaluate(ms)
-        table[ms.label()] = (rec["error"], rec["cost"], rec["n_dofs"])
+        table[ms.label()] = (rec["error"], rec["cost"], rec["n_dofs"], rec["errors"])
     return table, time.perf_counter() - t0
 
 
@@ -75,7 +75,7 @@ def truths(table):
     """{level: label of the cheapest set meeting it (cost, then DOFs, then error)}."""
     out = {}
     for level in LEVELS:
-        ok = [(c, n, e, k) for k, (e, c, n) in table.items() if e <= level]
+        ok = [(c, n, e, k) for k, (e, c, n, *_) in table.items() if e <= level]
         if ok:
             out[level] = min(ok)[3]
     return out
@@ -92,7 +92,7 @@ def run_tpe(study, table, seed, limit, wanted=()):
     while len(order) < limit and stall < 500 and not set(wanted) <= seen:
         trial = opt.ask()
         label = space.canonical(space.suggest(trial)).label()
-        error, cost, _ = table[label]
+        error, cost = table[label][:2]
         opt.tell(trial, (error, cost))
         if label not in seen:
             seen.add(label)
@@ -104,40 +104,23 @@ def run_tpe(study, table, seed, limit, wanted=()):
 
 
 def run_fieldwise(study, table, seed, limit, wanted=()):
-    """Converge one field at a time (others at the best set so far), then combine."""
-    rng = np.random.default_rng(seed)
-    fields = [s.field for s in study.search.fields]
-    choices = {s.field: [FieldModes(f.family, c) for f in s.families
-                         for c in range(f.min_count, f.max_count + 1)] for s in study.search.fields}
-    order, seen = [], set()
-
-    def evaluate(fixed):
-        label = ModeSet(fixed).label()
-        if label not in seen:
-            seen.add(label)
-            order.append(label)
-        return table[label]
-
-    current = {f: choices[f][0] for f in fields}
-    evaluate(current)
-    for sweep in range(2):
-        for f in rng.permutation(fields):
-            # each choice of field f with the others held; cheapest first (DOFs = count)
-            options = sorted(choices[f], key=lambda m: (m.count, rng.random()))
-            best = min(((evaluate(dict(current, **{f: m}))[0], m.count, m) for m in options),
-                       key=lambda r: (r[0], r[1]))
-            current[f] = best[2]
-    # combine: per field, the cheapest choice that met each level with the others at their best
-    for level in LEVELS:
-        per_field = {}
-        for f in fields:
-            errs = [table[ModeSet(dict(current, **{f: m})).label()][0] for m in choices[f]]
-            ok = [m for e, m in sorted(((e, m) for e, m in zip(errs, choices[f]) if e <= level),
-                                       key=lambda r: (r[1].count, r[0]))]
-            per_field[f] = ok or [current[f]]
-        for combo in itertools.product(*(per_field[f][:3] for f in fields)):
-            evaluate(dict(zip(fields, combo)))
-    return order[:limit]
+    """`modesel.study.search.structured.Fieldwise` (``sampler = "fieldwise"``), driven
+    set by set: it sees only the records of the sets simulated so far."""
+    from modesel.study.search.structured import Fieldwise, Record
+    space = SearchSpace(study.search)
+    strategy = Fieldwise(space, LEVELS, seed=seed)
+    records, order = {}, []
+    while len(order) < limit and not set(wanted) <= set(order):
+        ms = strategy.propose(records)
+        if ms is None:
+            break
+        label = space.canonical(ms).label()
+        if label in records:
+            raise RuntimeError(f"fieldwise proposed {label} twice")
+        error, cost, _, errors = table[label]
+        records[label] = Record(ms, errors, error, cost)
+        order.append(label)
+    return order
 
 
 STRATEGIES = {"tpe": run_tpe, "fieldwise": run_fieldwise}
@@ -190,7 +173,7 @@ def main(argv=None):
           f"enumerated in {wall:.1f} s wall")
     truth = truths(table)
     for level, label in truth.items():
-        e, c, d = table[label]
+        e, c, d = table[label][:3]
         print(f"  true cheapest within {level:.3g}: {label} (error {e:.4g}, cost {c:.4g} model s per "
               f"simulated s, {d} DOFs)")
     for name in args.strategy:
