@@ -763,3 +763,12 @@ def test_fieldwise_in_two_processes_simulates_each_set_once(tmp_path):
     trials = [t for t in distinct(outcome.optuna_study.trials) if "modeset_json" in t.user_attrs]
     labels = [t.user_attrs["modeset"] for t in trials]
     assert len(labels) == len(set(labels)) >= 12
+
+
+def test_fieldwise_workers_share_one_plan(tmp_path):
+    """Workers get different sampler seeds; the strategy (its base set and order) follows the
+    study's seed, so every worker and a resumed run continue the same plan."""
+    from modesel.study.search.structured import FieldwiseSampler
+    study = _fieldwise_study(tmp_path, n_trials=1)
+    a, b = FieldwiseSampler(study, seed=1), FieldwiseSampler(study, seed=987)
+    assert a.strategy.base == b.strategy.base and a.strategy.fields == b.strategy.fields

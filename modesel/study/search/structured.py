@@ -224,7 +224,9 @@ class FieldwiseSampler(optuna.samplers.BaseSampler):
     def __init__(self, study, seed: int = 0):
         from modesel.study.search.space import SearchSpace
         self.space = SearchSpace(study.search)
-        self.strategy = Fieldwise(self.space, study.compare.levels, seed=seed)
+        # the strategy's order comes from the study's seed, the same in every worker and on
+        # resume (one base set); the per-worker `seed` only drives the random fallback
+        self.strategy = Fieldwise(self.space, study.compare.levels, seed=study.run.seed)
         self.fallback = optuna.samplers.RandomSampler(seed=seed)
         self.plan = {}
 
