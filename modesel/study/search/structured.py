@@ -7,23 +7,27 @@ blade-tip out-of-plane deflection by blade_flap, ...), and a set's error is
 its worst channel. So one simulation in which only field f differs from a
 base set tells how good f's choice is, and the error of a combination is
 predicted from those one-field runs. The cost objective also has structure:
-a mode with more shapes per field costs more (more DOFs, stiffer highest
-mode), so counts are tried in increasing order.
+a field with more modes costs more (more DOFs, a stiffer highest mode), so
+counts are tried in increasing order.
+
+Level by level, loosest first:
 
 1. **Sweep.** The base set is each field's first choice at its fewest
-   modes. For count k = 1, 2, ...: for every field not yet done, each choice
-   (family, k modes) of that field with the other fields at the base. The
-   channels of field f are those whose error varies most when only f
-   varies (learned from these runs, nothing declared). Field f is done once
-   one of its choices meets the tightest level (its error, the worst of its
-   channels): more modes would only cost more.
-2. **Combine.** Per level, loosest first: the combinations whose predicted
-   error (per channel, the run in which only that channel's field had that
-   choice; worst channel) meets the level with a margin, cheapest predicted
-   first (predicted cost: the dearest of the one-field runs, then the
-   number of modes). The level is settled once a simulated set meets it at
-   a cost no higher than every unsimulated candidate's prediction; then the
-   margin widens, and at the end any set not yet simulated is proposed.
+   modes. For count k = 1, 2, ...: for every field that does not meet the
+   level yet, each choice (family, k modes) of that field with the other
+   fields at the base. The channels of field f are those whose error varies
+   most when only f varies (learned from these runs, nothing declared).
+   Field f meets the level once one of its choices does (its error: the
+   worst of its channels); more modes would only cost more.
+2. **Combine.** The combinations whose predicted error (per field, the run
+   in which only that field had that choice) meets the level with a 15 %
+   margin, cheapest predicted first (predicted cost: the dearest of the
+   one-field runs, then the number of modes). The level is settled once a
+   simulated set meets it at a cost no higher than every unsimulated
+   candidate's prediction. Then the next level.
+
+After the last level the margin widens (50 %, 150 %), and at the end any set
+not yet simulated is proposed.
 
 The strategy sees only the records of simulated sets (the set, its error per
 channel, its cost), as `modesel run` stores them; it is deterministic for a
@@ -123,26 +127,41 @@ class Fieldwise:
     # --- the proposal ------------------------------------------------------------------------------
     def propose(self, records: dict, pending=()) -> ModeSet | None:
         """The next set to simulate. `records`: {label: Record} of the simulated sets;
-        `pending`: labels being simulated. None when every set of the space was simulated."""
+        `pending`: labels being simulated. None when every set of the space was simulated.
+        Level by level, loosest first: sweep until every field meets the level (or has no
+        count left), then the combinations predicted to meet it; then wider margins."""
         taken = set(records) | set(pending)
-        runs = self._one_field_runs(records)
-        owner = self._attribution(runs)
-        sweep = self._sweep_next(records, runs, owner, taken)
-        if sweep is not None:
-            return sweep
-        return self._combine_next(records, runs, owner, taken)
-
-    def _sweep_next(self, records, runs, owner, taken):
         base = self._set()
         if base.label() not in taken:
             return base
-        tightest = self.levels[-1]
+        runs = self._one_field_runs(records)
+        owner = self._attribution(runs)
+        for level in self.levels:
+            ms = self._sweep_next(runs, owner, taken, level)
+            if ms is None:
+                ms = self._combine_next(records, runs, owner, taken, level, MARGINS[0])
+            if ms is not None:
+                return ms
+        for margin in MARGINS[1:]:
+            for level in self.levels:
+                ms = self._combine_next(records, runs, owner, taken, level, margin)
+                if ms is not None:
+                    return ms
+        # every prediction settled: the rest of the space
+        for combo in itertools.product(*(self.choices[f] for f in self.fields)):
+            ms = self._set(**dict(zip(self.fields, combo)))
+            if ms.label() not in taken:
+                return ms
+        return None
+
+    def _sweep_next(self, runs, owner, taken, level):
+        """The next one-field run, fewest modes first, of a field none of whose choices with
+        fewer modes met `level`."""
         counts = sorted({m.count for f in self.fields for m in self.choices[f]})
         for k in counts:
             for f in self.fields:
-                done = any(self._field_error(runs[f][m.label()], f, owner) <= tightest
-                           for m in self.choices[f] if m.count < k and m.label() in runs[f])
-                if done:
+                if any(self._field_error(runs[f][m.label()], f, owner) <= level
+                       for m in self.choices[f] if m.count < k and m.label() in runs[f]):
                     continue
                 for m in self.choices[f]:
                     if m.count == k:
@@ -152,51 +171,45 @@ class Fieldwise:
         return None
 
     def _predict(self, runs, owner, combo: dict) -> tuple:
-        """(predicted error, predicted cost key) of `combo` {field: choice}."""
+        """(predicted error, predicted cost key) of `combo` {field: choice}: the worst of the
+        fields' errors in their one-field runs; the dearest of those runs, then the number of
+        modes, then the sum of their costs."""
         recs = {f: runs[f][m.label()] for f, m in combo.items()}
-        error = 0.0
-        for f, rec in recs.items():
-            error = max(error, self._field_error(rec, f, owner))
+        error = max(self._field_error(rec, f, owner) for f, rec in recs.items())
         cost = max(r.cost for r in recs.values())
         return error, (cost, sum(m.count for m in combo.values()), sum(r.cost for r in recs.values()))
 
-    def _combine_next(self, records, runs, owner, taken):
-        known = {f: [m for m in self.choices[f] if m.label() in runs[f]] for f in self.fields}
-        for margin in MARGINS:
-            for level in self.levels:
-                per_field = []
-                for f in self.fields:
-                    ok = [m for m in known[f] if self._field_error(runs[f][m.label()], f, owner)
-                          <= level * (1 + margin)]
-                    ok.sort(key=lambda m: (runs[f][m.label()].cost, m.count))
-                    per_field.append(ok[:COMBO_LIMIT])
-                candidates = []
-                for combo in itertools.product(*per_field):
-                    c = dict(zip(self.fields, combo))
-                    _, key = self._predict(runs, owner, c)
-                    candidates.append((key, self._set(**c)))
-                candidates.sort(key=lambda kc: kc[0])
-                met = [r.cost for r in records.values() if r.error <= level]
-                best = min(met) if met else math.inf
-                for key, ms in candidates:
-                    if key[0] > best:
-                        break
-                    if ms.label() not in taken:
-                        return ms
-        # every prediction settled: the rest of the space
-        for combo in itertools.product(*(self.choices[f] for f in self.fields)):
-            ms = self._set(**dict(zip(self.fields, combo)))
+    def _combine_next(self, records, runs, owner, taken, level, margin):
+        """The cheapest predicted combination meeting `level` with `margin` that is not
+        simulated yet and could still be cheaper than the cheapest set known to meet it."""
+        per_field = []
+        for f in self.fields:
+            ok = [m for m in self.choices[f] if m.label() in runs[f]
+                  and self._field_error(runs[f][m.label()], f, owner) <= level * (1 + margin)]
+            ok.sort(key=lambda m: (runs[f][m.label()].cost, m.count))
+            per_field.append(ok[:COMBO_LIMIT])
+        candidates = []
+        for combo in itertools.product(*per_field):
+            c = dict(zip(self.fields, combo))
+            candidates.append((self._predict(runs, owner, c)[1], self._set(**c)))
+        candidates.sort(key=lambda kc: kc[0])
+        met = [r.cost for r in records.values() if r.error <= level]
+        best = min(met) if met else math.inf
+        for key, ms in candidates:
+            if key[0] > best:
+                break
             if ms.label() not in taken:
                 return ms
         return None
 
 
-def history(study, space) -> tuple:
-    """({label: Record} of the simulated sets, [labels being simulated]) of an Optuna study, read
-    from what the objective stores: user attributes modeset_json and errors of complete trials
-    (a repeat, ``duplicate_of``, adds nothing), failed trials as error inf, and the parameters of
-    running or queued trials."""
-    records, pending = {}, []
+def history(study, space, before: int | None = None) -> tuple:
+    """({label: Record} of the simulated sets, [labels being simulated], number of running trials
+    numbered below `before` whose set is not known yet) of an Optuna study, read from what the
+    objective stores: user attributes modeset_json and errors of complete trials (a repeat,
+    ``duplicate_of``, adds nothing), failed trials as error inf, and the parameters of running or
+    queued trials."""
+    records, pending, unknown = {}, [], 0
     states = optuna.trial.TrialState
     for t in study.get_trials(deepcopy=False):
         attrs = t.user_attrs
@@ -210,7 +223,9 @@ def history(study, space) -> tuple:
             ms = space.from_params(t.params)
             if ms is not None:
                 pending.append(space.canonical(ms).label())
-    return records, pending
+            elif t.state == states.RUNNING and before is not None and t.number < before:
+                unknown += 1
+    return records, pending, unknown
 
 
 class FieldwiseSampler(optuna.samplers.BaseSampler):
@@ -237,10 +252,16 @@ class FieldwiseSampler(optuna.samplers.BaseSampler):
         return {}
 
     def before_trial(self, study, trial):
-        records, pending = history(study, self.space)
-        modeset = self.strategy.propose(records, pending)
-        if modeset is not None:
-            self.plan[trial.number] = self.space.params(modeset)
+        records, pending, unknown = history(study, self.space, before=trial.number)
+        # earlier trials still choosing their set (workers started together) took the first
+        # proposals: skip as many
+        pending = list(pending)
+        for _ in range(unknown + 1):
+            modeset = self.strategy.propose(records, pending)
+            if modeset is None:
+                return
+            pending.append(modeset.label())
+        self.plan[trial.number] = self.space.params(modeset)
 
     def sample_independent(self, study, trial, param_name, param_distribution):
         plan = self.plan.get(trial.number, {})
