@@ -65,7 +65,10 @@ def sub_space_study(name="tower"):
     return parse_study(text, path)
 
 
-def enumerate_space(study):
+def enumerate_space(study, partial=None):
+    """{label: (error, cost, n_dofs, {channel: error})} of every set, and the wall time [s];
+    `partial` (a JSON path) is written as it goes and resumed from."""
+    import json
     engine = default_engine()
     scenes = load_scenes(study, engine)
     objective = Objective(study, scenes, prepare_references(study, scenes, engine), engine)
@@ -75,11 +78,20 @@ def enumerate_space(study):
                  for s in study.search.fields]
     for combo in itertools.product(*per_field):
         sets.append(ModeSet({s.field: fm for s, fm in zip(study.search.fields, combo)}))
-    table, t0 = {}, time.perf_counter()
+    table, wall = {}, 0.0
+    if partial is not None and Path(partial).exists():
+        data = json.loads(Path(partial).read_text())
+        table, wall = {k: tuple(v) for k, v in data["table"].items()}, data["wall_s"]
     for ms in sets:
+        if ms.label() in table:
+            continue
+        t0 = time.perf_counter()
         rec = objective.evaluate(ms)
+        wall += time.perf_counter() - t0
         table[ms.label()] = (rec["error"], rec["cost"], rec["n_dofs"], rec["errors"])
-    return table, time.perf_counter() - t0
+        if partial is not None:
+            Path(partial).write_text(json.dumps({"table": table, "wall_s": wall}))
+    return table, wall
 
 
 def truths(table):
@@ -171,15 +183,17 @@ def main(argv=None):
         return
     study = sub_space_study(args.subspace)
     cache = Path(args.table) if args.table else None
-    if cache is not None and cache.exists():
+    if cache is not None and cache.exists() and not Path(str(cache) + ".partial").exists():
         import json
         data = json.loads(cache.read_text())
         table, wall = {k: tuple(v) for k, v in data["table"].items()}, data["wall_s"]
     else:
-        table, wall = enumerate_space(study)
+        partial = Path(str(cache) + ".partial") if cache is not None else None
+        table, wall = enumerate_space(study, partial)
         if cache is not None:
             import json
             cache.write_text(json.dumps({"table": table, "wall_s": wall}))
+            partial.unlink()
     n = len(table)
     print(f"sub-space: {SUBSPACES[args.subspace][1]}, families {FAMILIES}, 1-4 modes: {n} sets; "
           f"enumerated in {wall:.1f} s wall")

@@ -147,12 +147,15 @@ class Fieldwise:
                 ms = self._combine_next(records, runs, owner, taken, level, margin)
                 if ms is not None:
                     return ms
-        # every prediction settled: the rest of the space
+        # every prediction settled: the rest of the space, fewest modes first, then by the
+        # one-field runs' costs where known
+        rest = []
         for combo in itertools.product(*(self.choices[f] for f in self.fields)):
             ms = self._set(**dict(zip(self.fields, combo)))
             if ms.label() not in taken:
-                return ms
-        return None
+                known = [runs[f][m.label()].cost for f, m in zip(self.fields, combo) if m.label() in runs[f]]
+                rest.append((sum(m.count for m in combo), -len(known), max(known, default=0.0), ms.label(), ms))
+        return min(rest, key=lambda r: r[:4])[4] if rest else None
 
     def _sweep_next(self, runs, owner, taken, level):
         """The next one-field run, fewest modes first, of a field none of whose choices with
