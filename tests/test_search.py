@@ -758,6 +758,9 @@ def test_fieldwise_strategy_sees_only_the_records_and_never_repeats(tmp_path):
 
 
 def test_fieldwise_in_two_processes_simulates_each_set_once(tmp_path):
+    import cloudpickle
+    import sys
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
     study = _fieldwise_study(tmp_path, n_trials=12)
     outcome = run_search(study, out_dir=tmp_path / "out", n_jobs=2, engine=FAKE_ENGINE, progress=False)
     trials = [t for t in distinct(outcome.optuna_study.trials) if "modeset_json" in t.user_attrs]

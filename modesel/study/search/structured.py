@@ -239,9 +239,10 @@ class FieldwiseSampler(optuna.samplers.BaseSampler):
     study resumes, and several processes share one study (a set being simulated
     by another process is not proposed again)."""
 
-    def __init__(self, study, seed: int = 0):
+    def __init__(self, study, seed: int = 0, space=None):
         from modesel.study.search.space import SearchSpace
-        self.space = SearchSpace(study.search)
+        # the objective's space when given: it carries the family objects to worker processes
+        self.space = space if space is not None else SearchSpace(study.search)
         # the strategy's order comes from the study's seed, the same in every worker and on
         # resume (one base set); the per-worker `seed` only drives the random fallback
         self.strategy = Fieldwise(self.space, study.compare.levels, seed=study.run.seed)
