@@ -37,7 +37,7 @@ class Table:
 
 
 REFERENCE_KINDS = ("openfast", "csv", "internal")
-SAMPLER_NAMES = ("tpe", "nsga2", "random")
+SAMPLER_NAMES = ("tpe", "nsga2", "random", "fieldwise")
 COST_NAMES = ("wall_time", "dofs", "model")
 
 TABLES = (
@@ -84,7 +84,10 @@ TABLES = (
     )),
     Table("search", "What is searched and how.", (
         Key("fields", "table", REQUIRED, "", "one table per searched field (below); other fields keep the scene's modes"),
-        Key("sampler", "string", "tpe", "", "Optuna sampler, seeded", SAMPLER_NAMES),
+        Key("sampler", "string", "tpe", "", "Optuna sampler, seeded: tpe, nsga2, random, or fieldwise "
+            "(structured: one field at a time from a base set, counts in increasing order, each "
+            "channel's error attributed to the field that moves it; then the combinations predicted "
+            "to meet each level, cheapest first; modesel.study.search.structured)", SAMPLER_NAMES),
         Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second), "
             "model (right-hand-side evaluations x calibrated unit cost per simulated second: "
             "deterministic) or dofs (number of degrees of freedom)", COST_NAMES),

@@ -49,7 +49,7 @@ Example (every key shown; only [[scene]], [compare].channels and
     levels = [0.035, 0.01]             # extra tolerance levels reported ("1 % costs K times")
 
     [search]
-    sampler = "tpe"                    # "tpe" | "nsga2" | "random" (multi-objective, seeded)
+    sampler = "tpe"                    # "tpe" | "nsga2" | "random" | "fieldwise" (structured), seeded
     cost = "model"                     # "model" (deterministic: right-hand-side evaluations x
                                        # calibrated unit cost, s per simulated s) |
                                        # "wall_time" (measured wall s per simulated s) | "dofs"

@@ -150,7 +150,8 @@ def optimize_worker(objective: Objective, storage_url, study, sampler_name: str,
         worker_init(parent)
     owned = Owned(objective)
     try:
-        sampler = make_sampler(sampler_name, seed, n_trials)
+        sampler = make_sampler(sampler_name, seed, n_trials, study=objective.study,
+                               space=objective.space)
         opt = open_study(study, storage_url, sampler, create=False)
         budget = Budget(objective, n_trials, seed)
         if budget.exhausted(opt):

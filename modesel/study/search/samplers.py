@@ -24,12 +24,22 @@ def _random(seed, n_trials):
     return optuna.samplers.RandomSampler(seed=seed)
 
 
-SAMPLERS = {"tpe": _tpe, "nsga2": _nsga2, "random": _random}
+def _fieldwise(seed, n_trials, study=None, space=None):
+    from modesel.study.search.structured import FieldwiseSampler
+    return FieldwiseSampler(study, seed, space)
 
 
-def make_sampler(name: str, seed: int, n_trials: int = 100):
+SAMPLERS = {"tpe": _tpe, "nsga2": _nsga2, "random": _random, "fieldwise": _fieldwise}
+
+
+def make_sampler(name: str, seed: int, n_trials: int = 100, study=None, space=None):
+    """The Optuna sampler `name` (`SAMPLERS`); `study` (the parsed study file) is needed by
+    the structured one, ``fieldwise``, and `space` (the objective's `SearchSpace`) is used by
+    it when given."""
     if name not in SAMPLERS:
         raise unknown_name("sampler", name, SAMPLERS, field="search.sampler")
+    if name == "fieldwise":
+        return _fieldwise(int(seed), int(n_trials), study, space)
     return SAMPLERS[name](int(seed), int(n_trials))
 
 
