@@ -123,7 +123,10 @@ class Budget:
 
     def __call__(self, study, trial) -> None:
         obj = self.objective
-        if obj.evaluated >= self.quota or obj.duplicate_streak >= self.max_streak or self.exhausted(study):
+        # the space is exhausted only when proposals repeat: checked after a
+        # repeat only, since reading every trial costs O(trials) on an RDB storage
+        if obj.evaluated >= self.quota or obj.duplicate_streak >= self.max_streak or \
+                (obj.duplicate_streak > 0 and self.exhausted(study)):
             study.stop()
         elif obj.duplicate_streak >= self.kick_after:
             seen = distinct_sets(study)
