@@ -179,6 +179,25 @@ def bench_postgres(label: str, study: Path, n_sets: int) -> list:
     return rows
 
 
+def _spin(n: int) -> float:
+    t0 = time.perf_counter()
+    sum(i * i for i in range(n))
+    return time.perf_counter() - t0
+
+
+def machine_ceiling(jobs: int, n: int = 20_000_000) -> float:
+    """Throughput of `jobs` processes running the same pure-Python loop at
+    once, relative to one: the most any `--n-jobs` can gain on this machine
+    right now (other users' load included)."""
+    import multiprocessing
+    one = _spin(n)
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        t0 = time.perf_counter()
+        pool.map(_spin, [n] * jobs)
+        together = time.perf_counter() - t0
+    return jobs * one / together
+
+
 def print_rows(rows: list) -> None:
     print(f"{'study':<9} {'mode':<26} {'trials':>6} {'sets':>5} {'search [s]':>10} {'trials/min':>10} "
           f"{'sets/min':>9} {'speed-up':>8} {'whole [s]':>9} {'whole sets/min':>14}")
@@ -200,7 +219,9 @@ def main_bench() -> None:
     p.add_argument("--skip-turbine", action="store_true")
     p.add_argument("--skip-postgres", action="store_true")
     a = p.parse_args()
-    print(f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} (1 min) before", flush=True)
+    print(f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} (1 min) before; a CPU-bound "
+          f"loop in {a.max_jobs} processes runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one "
+          f"(the ceiling of any speed-up now)", flush=True)
     rows = bench_jobs("tower", STUDIES["tower"], a.tower_sets, a.max_jobs)
     print_rows(rows)
     if not a.skip_turbine:
@@ -212,7 +233,8 @@ def main_bench() -> None:
             print(f"PostgreSQL mode skipped: {exc}")
     print()
     print_rows(rows)
-    print(f"load average {os.getloadavg()[0]:.1f} (1 min) after; speed-up: sets/min of the search "
+    print(f"load average {os.getloadavg()[0]:.1f} (1 min) after; a CPU-bound loop in {a.max_jobs} processes "
+          f"runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one; speed-up: sets/min of the search "
           f"relative to --n-jobs 1 (or to one PostgreSQL worker)")
 
 
