@@ -1,55 +1,241 @@
-"""Search throughput: trials per minute of `modesel run` on 2 cores for the
-tower free-decay study and the full-turbine study, and the speed-up of
---n-jobs 2 over 1. Run: python benchmarks/bench_search.py [--turbine-trials N]
+"""Search throughput: trials per minute of `modesel run --n-jobs J` for
+J = 1..N (N = the cores of this machine, `os.cpu_count()`) on the tower
+free-decay study and the full-turbine study, and the speed-up over J = 1;
+then two `modesel worker` processes on one study in a throwaway PostgreSQL
+server against one worker (skipped, with the reason, when PostgreSQL or
+psycopg2 is missing).
 
-Each run uses a fresh output folder (no resume); the internal reference of
-the turbine study is built once before timing (it is cached on disk)."""
+Run: python3 benchmarks/bench_search.py [--tower-sets 60] [--turbine-sets 8]
+     [--max-jobs N] [--skip-turbine] [--skip-postgres]
+
+Each run is the real command in a fresh process and a fresh output folder
+(no resume), with ``[budget] stop_when_met = false`` (a copy of the study
+file beside it) so that every run does its whole budget. Two rates per run:
+
+- search: trials (repeats included) and distinct sets simulated per minute
+  between the first trial's start and the last trial's end, from the
+  storage's own timestamps: the throughput the issue asks to scale;
+- whole: sets per minute of the whole command (imports, loading the decks
+  and the reference, results and report written), what a user waits for.
+
+The turbine study's internal reference is built once before timing and
+copied into each output folder (it is cached there), so no timed run
+rebuilds it. Timings on a machine shared with other jobs vary; the script
+prints the load average before and after.
+"""
 from __future__ import annotations
 
 import argparse
+import contextlib
+import glob
+import os
 import shutil
+import socket
+import subprocess
+import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import pandas as pd
+REPO = Path(__file__).resolve().parents[1]
+STUDIES = {"tower": REPO / "studies" / "tower_free_decay.toml",
+           "turbine": REPO / "studies" / "turbine_steady_wind.toml"}
 
-from modesel.cli import main
 
-
-def timed_run(study: str, n_trials: int, n_jobs: int, cache: Path | None = None) -> tuple[float, int]:
-    out = Path(tempfile.mkdtemp(prefix="bench-search-"))
+@contextlib.contextmanager
+def full_budget_copy(study: Path):
+    """A copy of `study` beside it (relative paths still resolve) with
+    stop_when_met = false; removed afterwards."""
+    text = study.read_text()
+    if "stop_when_met = true" in text:
+        text = text.replace("stop_when_met = true", "stop_when_met = false")
+    copy = study.with_name(f".bench-{os.getpid()}-{study.name}")
+    copy.write_text(text)
     try:
-        args = ["run", study, "--out", str(out), "--n-trials", str(n_trials), "--n-jobs", str(n_jobs)]
-        t0 = time.perf_counter()
-        assert main(args) == 0
-        wall = time.perf_counter() - t0
-        n = len(pd.read_csv(out / "trials.csv"))
-        return wall, n
+        yield copy
     finally:
-        shutil.rmtree(out, ignore_errors=True)
+        copy.unlink(missing_ok=True)
 
 
-def main_bench():
-    p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--tower-trials", type=int, default=30)
-    p.add_argument("--turbine-trials", type=int, default=8)
-    a = p.parse_args()
+def modesel(*args, cwd=None) -> float:
+    """Run `python -m modesel ARGS` quietly; returns its wall time [s]."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "modesel", *args, "--quiet"], cwd=cwd, env=env,
+                          capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise SystemExit(f"modesel {' '.join(args)} failed ({done.returncode}): {done.stderr.strip()[-800:]}")
+    return wall
+
+
+def search_rates(storage, name: str) -> dict:
+    """Trials, sets simulated and the search span [s] of study `name` in
+    `storage` (a journal path or a SQLAlchemy URL), from trial timestamps."""
+    import optuna
+
+    from modesel.study.search import open_storage
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
+    trials = optuna.load_study(study_name=name, storage=open_storage(str(storage))).get_trials(deepcopy=False)
+    done = [t for t in trials if t.datetime_start is not None and t.datetime_complete is not None]
+    span = (max(t.datetime_complete for t in done) - min(t.datetime_start for t in done)).total_seconds()
+    sets = sum(1 for t in done if "modeset_json" in t.user_attrs and "duplicate_of" not in t.user_attrs)
+    return {"trials": len(done), "sets": sets, "span": span}
+
+
+def bench_jobs(label: str, study: Path, n_sets: int, max_jobs: int) -> list:
     rows = []
-    for study, n in (("studies/tower_free_decay.toml", a.tower_trials),
-                     ("studies/turbine_steady_wind.toml", a.turbine_trials)):
-        if "turbine" in study:      # build and cache the internal reference first
-            timed_run(study, 1, 1)
-        per = {}
-        for jobs in (1, 2):
-            wall, done = timed_run(study, n, jobs)
-            per[jobs] = done / wall * 60.0
-            rows.append((Path(study).stem, jobs, done, wall, per[jobs]))
-        rows.append((Path(study).stem, "speed-up 2 vs 1", "", "", per[2] / per[1]))
-    print(f"{'study':<22} {'n_jobs':>16} {'trials':>7} {'wall [s]':>9} {'trials/min':>11}")
-    for r in rows:
-        print(f"{r[0]:<22} {str(r[1]):>16} {str(r[2]):>7} "
-              f"{(f'{r[3]:.1f}' if r[3] != '' else ''):>9} {r[4]:>11.2f}")
+    with full_budget_copy(study) as copy, tempfile.TemporaryDirectory(prefix="bench-search-") as tmp:
+        warm = Path(tmp) / "warm"              # compile, and build the internal reference once
+        modesel("run", str(copy), "--out", str(warm), "--n-trials", "1", "--n-jobs", "1")
+        for jobs in range(1, max_jobs + 1):
+            out = Path(tmp) / f"jobs{jobs}"
+            if (warm / "reference").is_dir():
+                shutil.copytree(warm / "reference", out / "reference")
+            wall = modesel("run", str(copy), "--out", str(out), "--n-trials", str(n_sets),
+                           "--n-jobs", str(jobs))
+            r = search_rates(out / "study.journal", study_name(study))
+            rows.append((label, f"--n-jobs {jobs}", r, wall))
+    return rows
+
+
+def study_name(study: Path) -> str:
+    import tomllib
+    return tomllib.loads(study.read_text())["study"]["name"]
+
+
+# --------------------------------------------------------------------------- PostgreSQL
+
+def _pg_bin(name: str):
+    return shutil.which(name) or next(iter(sorted(glob.glob(f"/usr/lib/postgresql/*/bin/{name}"))[::-1]), None)
+
+
+@contextlib.contextmanager
+def throwaway_postgres():
+    """Yield a function db(name) -> URL of a new database in a throwaway
+    cluster on loopback (as tests/test_postgres_workers.py starts one), or
+    raise RuntimeError saying why there is none."""
+    import importlib.util
+    import pwd
+    initdb, pg_ctl = _pg_bin("initdb"), _pg_bin("pg_ctl")
+    if not (initdb and pg_ctl):
+        raise RuntimeError("PostgreSQL (initdb, pg_ctl) is not installed; .ci/run installs it")
+    if importlib.util.find_spec("psycopg2") is None:
+        raise RuntimeError("psycopg2 is not installed")
+    import psycopg2
+    root = tempfile.mkdtemp(prefix="modesel-bench-pg-")
+    data, sock = os.path.join(root, "pgdata"), os.path.join(root, "sock")
+    os.mkdir(data)
+    os.mkdir(sock)
+    prefix = []
+    if os.geteuid() == 0:                       # the server refuses to run as root
+        try:
+            uid = pwd.getpwnam("postgres").pw_uid
+            user = "postgres"
+        except KeyError:
+            uid, user = pwd.getpwnam("nobody").pw_uid, "nobody"
+        for p in (root, data, sock):
+            os.chown(p, uid, -1)
+        prefix = ["runuser", "-u", user, "--"]
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    subprocess.run(prefix + [initdb, "-D", data, "-A", "trust", "-U", "modesel"], check=True, capture_output=True)
+    subprocess.run(prefix + [pg_ctl, "-D", data, "-w", "-l", os.path.join(root, "pg.log"), "-o",
+                             f"-p {port} -k {sock} -c listen_addresses=127.0.0.1", "start"],
+                   check=True, capture_output=True)
+
+    def db(name: str) -> str:
+        con = psycopg2.connect(host="127.0.0.1", port=port, user="modesel", dbname="postgres")
+        con.autocommit = True
+        con.cursor().execute(f"CREATE DATABASE {name}")
+        con.close()
+        return f"postgresql://modesel@127.0.0.1:{port}/{name}"
+    try:
+        yield db
+    finally:
+        subprocess.run(prefix + [pg_ctl, "-D", data, "-m", "immediate", "stop"], capture_output=True)
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def bench_postgres(label: str, study: Path, n_sets: int) -> list:
+    """One `modesel worker` doing `n_sets` against two doing half each, at once."""
+    rows = []
+    with full_budget_copy(study) as copy, throwaway_postgres() as db:
+        name = study_name(study)
+        url = db("warmup")                      # compile, load once (not timed)
+        modesel("worker", str(copy), "--storage", url, "--n-trials", "1")
+        for n_workers in (1, 2):
+            url = db(f"workers{n_workers}")
+            share = [n_sets // n_workers + (1 if i < n_sets % n_workers else 0) for i in range(n_workers)]
+            t0 = time.perf_counter()
+            with ThreadPoolExecutor(n_workers) as pool:      # the worker processes run at once
+                list(pool.map(lambda n: modesel("worker", str(copy), "--storage", url, "--n-trials", str(n)),
+                              share))
+            wall = time.perf_counter() - t0
+            rows.append((label, f"{n_workers} worker{'s' if n_workers > 1 else ''} (PostgreSQL)",
+                         search_rates(url, name), wall))
+    return rows
+
+
+def _spin(n: int) -> float:
+    t0 = time.perf_counter()
+    sum(i * i for i in range(n))
+    return time.perf_counter() - t0
+
+
+def machine_ceiling(jobs: int, n: int = 20_000_000) -> float:
+    """Throughput of `jobs` processes running the same pure-Python loop at
+    once, relative to one: the most any `--n-jobs` can gain on this machine
+    right now (other users' load included)."""
+    import multiprocessing
+    one = _spin(n)
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        t0 = time.perf_counter()
+        pool.map(_spin, [n] * jobs)
+        together = time.perf_counter() - t0
+    return jobs * one / together
+
+
+def print_rows(rows: list) -> None:
+    print(f"{'study':<9} {'mode':<26} {'trials':>6} {'sets':>5} {'search [s]':>10} {'trials/min':>10} "
+          f"{'sets/min':>9} {'speed-up':>8} {'whole [s]':>9} {'whole sets/min':>14}")
+    base = {}
+    for label, mode, r, wall in rows:
+        per_min = 60.0 * r["sets"] / r["span"] if r["span"] > 0 else float("nan")
+        key = (label, "PostgreSQL" in mode)
+        base.setdefault(key, per_min)
+        print(f"{label:<9} {mode:<26} {r['trials']:>6} {r['sets']:>5} {r['span']:>10.1f} "
+              f"{60.0 * r['trials'] / r['span']:>10.1f} {per_min:>9.1f} {per_min / base[key]:>7.2f}x "
+              f"{wall:>9.1f} {60.0 * r['sets'] / wall:>14.1f}", flush=True)
+
+
+def main_bench() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--tower-sets", type=int, default=60, help="sets simulated per run (tower study)")
+    p.add_argument("--turbine-sets", type=int, default=8, help="sets simulated per run (turbine study)")
+    p.add_argument("--max-jobs", type=int, default=os.cpu_count() or 1, help="N (default: the cores)")
+    p.add_argument("--skip-turbine", action="store_true")
+    p.add_argument("--skip-postgres", action="store_true")
+    a = p.parse_args()
+    print(f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} (1 min) before; a CPU-bound "
+          f"loop in {a.max_jobs} processes runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one "
+          f"(the ceiling of any speed-up now)", flush=True)
+    rows = bench_jobs("tower", STUDIES["tower"], a.tower_sets, a.max_jobs)
+    print_rows(rows)
+    if not a.skip_turbine:
+        rows += bench_jobs("turbine", STUDIES["turbine"], a.turbine_sets, a.max_jobs)
+    if not a.skip_postgres:
+        try:
+            rows += bench_postgres("tower", STUDIES["tower"], a.tower_sets)
+        except RuntimeError as exc:
+            print(f"PostgreSQL mode skipped: {exc}")
+    print()
+    print_rows(rows)
+    print(f"load average {os.getloadavg()[0]:.1f} (1 min) after; a CPU-bound loop in {a.max_jobs} processes "
+          f"runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one; speed-up: sets/min of the search "
+          f"relative to --n-jobs 1 (or to one PostgreSQL worker)")
 
 
 if __name__ == "__main__":

@@ -34,7 +34,7 @@ from modesel.study.search.claims import abandoned, distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
-from modesel.study.search.progress import Progress, counts
+from modesel.study.search.progress import Progress, compile_notice, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
 from modesel.study.search.owners import OWNER, process_owner
 from modesel.study.search.storage import (check_against_results, default_storage, note_lost_trials, open_storage,
@@ -123,7 +123,10 @@ class Budget:
 
     def __call__(self, study, trial) -> None:
         obj = self.objective
-        if obj.evaluated >= self.quota or obj.duplicate_streak >= self.max_streak or self.exhausted(study):
+        # the space is exhausted only when proposals repeat: checked after a
+        # repeat only, since reading every trial costs O(trials) on an RDB storage
+        if obj.evaluated >= self.quota or obj.duplicate_streak >= self.max_streak or \
+                (obj.duplicate_streak > 0 and self.exhausted(study)):
             study.stop()
         elif obj.duplicate_streak >= self.kick_after:
             seen = distinct_sets(study)
@@ -259,10 +262,23 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
     since = n_before
     n_jobs = min(n_jobs, n_trials)
     shares = [n_trials // n_jobs + (1 if i < n_trials % n_jobs else 0) for i in range(n_jobs)]
-    bar = Progress(n_trials, study.name, progress)
     criterion = study.criterion()
+    workers = None
+    if n_jobs > 1 and _can_fork():
+        # persistent workers forked from this process after the warm-up: each
+        # starts with the compiled engine, the decks and the references loaded
+        # (a spawned worker paid seconds of imports and numba cache loading);
+        # forked before the progress bar starts its thread
+        compile_notice(quiet=progress is False)
+        objective.warm_up()
+        seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
+        workers = _fork_workers(objective, storage, study, seeds, shares, timeout, callbacks)
+    bar = Progress(n_trials, study.name, progress)
+    poll = (lambda: bar.set(*counts(opt, since, criterion))) if bar.bar is not None else (lambda: None)
     try:
-        if n_jobs == 1:
+        if workers is not None:
+            results = _wait_workers(workers, poll)
+        elif n_jobs == 1:
             def tick(s, t):
                 bar.set(*counts(s, since, criterion))
             results = [optimize_worker(objective, store, study, study.search.sampler,
@@ -270,17 +286,126 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
                                        tick if bar.bar is not None else None)]
         else:
             seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
-            results = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks,
-                                    lambda: bar.set(*counts(opt, since, criterion)))
+            results = _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, poll)
     except BaseException:
+        if workers is not None:
+            _stop_workers(workers)
         bar.close(clear=True)
         raise
+    for error, text in results:
+        if error == _INTERNAL:      # a bug in a forked worker: its traceback, not a one-line error
+            bar.close(clear=True)
+            raise RuntimeError(f"{_INTERNAL}:\n{text}")
     errors = [error for error, _ in results if error]
     bar.close(clear=bool(errors))
     if errors:
         raise ModeselError(errors[0])   # already "file: field: message" text from the worker
     new, repeats = tally(opt.get_trials(deepcopy=False), {owner for _, owner in results})
     return SearchOutcome(opt, storage, new, repeats, requeued, False, references, baseline)
+
+
+_INTERNAL = "internal error in a worker process"
+
+
+def _can_fork() -> bool:
+    """Whether worker processes can be forked (POSIX with the fork start
+    method; elsewhere the search spawns loky workers)."""
+    import multiprocessing
+    return hasattr(os, "fork") and "fork" in multiprocessing.get_all_start_methods() \
+        and sys.platform.startswith("linux")
+
+
+@dataclass
+class _Worker:
+    process: object
+    conn: object
+    result: tuple | None = None
+
+
+def _forked_worker(conn, objective, storage, study, seed, share, timeout, callbacks, parent) -> None:
+    """Body of a forked worker process: run `optimize_worker` and send its
+    (error, owner) back through `conn`; a bug is sent as its traceback."""
+    import traceback
+    try:
+        result = optimize_worker(objective, storage, study, study.search.sampler, seed, share, timeout,
+                                 callbacks, None, parent)
+    except BaseException:   # noqa: BLE001 (the parent reports it)
+        result = (_INTERNAL, traceback.format_exc().rstrip())
+    conn.send(result)
+    conn.close()
+
+
+def _fork_workers(objective, storage, study, seeds, shares, timeout, callbacks) -> list:
+    """Fork one worker process per share. SIGINT and SIGTERM are blocked
+    around the fork, so that a Ctrl-C cannot reach a worker before it ignores
+    SIGINT (`worker_init`: the study process stops its workers) and restores
+    the default SIGTERM (the parent's handler raises in the main thread)."""
+    import multiprocessing
+    ctx = multiprocessing.get_context("fork")
+    parent = os.getpid()
+    workers = []
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+    try:
+        try:
+            for seed_i, share in zip(seeds, shares):
+                mine, theirs = ctx.Pipe(duplex=False)
+                proc = ctx.Process(target=_forked_main, name="modesel-worker", daemon=True,
+                                   args=(theirs, previous, objective, storage, study, seed_i, share,
+                                         timeout, callbacks, parent))
+                proc.start()
+                theirs.close()
+                workers.append(_Worker(proc, mine))
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)   # a pending Ctrl-C is raised here
+    except BaseException:
+        _stop_workers(workers)
+        raise
+    return workers
+
+
+def _forked_main(conn, mask, *args) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    _forked_worker(conn, *args)
+
+
+def _wait_workers(workers: list, poll) -> list:
+    """Wait for the forked workers (calling `poll` every 0.5 s); returns their
+    (error, owner). A worker that died without a word (killed) is an error."""
+    from multiprocessing.connection import wait
+    pending = {w.conn: w for w in workers}
+    while pending:
+        for conn in wait(list(pending), timeout=0.5):
+            w = pending.pop(conn)
+            try:
+                w.result = conn.recv()
+            except (EOFError, OSError):
+                w.process.join()
+                code = w.process.exitcode
+                how = f"was killed by signal {-code}" if code is not None and code < 0 else f"exited ({code})"
+                w.result = (f"a worker process (pid {w.process.pid}) {how}; its running trial is queued "
+                            f"again when the study is resumed", None)
+        poll()
+    for w in workers:
+        w.process.join()
+    return [w.result for w in workers]
+
+
+def _stop_workers(workers: list) -> None:
+    """Kill the worker processes and wait until they are gone, so that no
+    trial finishes after the results of the finished trials have been
+    written."""
+    for w in workers:
+        if w.process.is_alive():
+            try:
+                os.kill(w.process.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    for w in workers:
+        w.process.join()
+        w.conn.close()
 
 
 def _run_parallel(objective, storage, study, seeds, shares, timeout, callbacks, poll):

@@ -24,6 +24,7 @@ Faults (issue 13):
 """
 from __future__ import annotations
 
+import functools
 import json
 import os
 import re
@@ -120,14 +121,13 @@ def open_storage(url, *, log=None):
     if not path.parent.is_dir():
         raise ModeselError("storage folder does not exist", file=url)
     try:
-        from optuna.storages.journal import JournalFileBackend
         lock = FlockLock(str(path))
         legacy = Path(str(path) + ".lock")      # Optuna's own lock file, left by a killed process
         if legacy.is_symlink() or legacy.is_file():
             legacy.unlink(missing_ok=True)      # modesel locks with flock: nobody holds this one
         with lock:
             check_journal(path, log=log or _say)
-        return optuna.storages.JournalStorage(JournalFileBackend(str(path), lock_obj=lock))
+        return optuna.storages.JournalStorage(JournalBackend(str(path), lock))
     except OSError as exc:
         raise ModeselError(f"cannot open storage: {exc.strerror}", file=url) from None
 
@@ -156,6 +156,11 @@ class FlockLock:
         self._fd = fd
         return True
 
+    @property
+    def fd(self) -> int:
+        """The locked journal file, open for appending (while acquired)."""
+        return self._fd
+
     def release(self) -> None:
         fd, self._fd = self._fd, None
         if fd is not None:
@@ -167,6 +172,61 @@ class FlockLock:
 
     def __exit__(self, *exc):
         self.release()
+
+
+def _needs_sync(record: dict) -> bool:
+    """Whether a journal record must be on disk (fsync) before its writer goes
+    on: records that finish or queue a trial and study-level records. The
+    details of a running trial (its parameters, user attributes, start) are
+    not synced one by one: the record that finishes the trial syncs them with
+    it, and a running trial lost with the machine is queued again anyway."""
+    from optuna.trial import TrialState
+    running = TrialState.RUNNING.value
+    if "trial_id" in record:                    # a running trial's parameter, attribute or state
+        return record.get("state", running) != running
+    if "state" in record:                       # a trial created in a given state (queued, told)
+        return record["state"] != running
+    return "datetime_start" not in record       # not a trial started by ask: a study record
+
+
+@functools.lru_cache(maxsize=None)
+def _journal_backend_class():
+    from optuna.storages.journal import JournalFileBackend
+
+    class _Backend(JournalFileBackend):
+        """Optuna's journal file backend with a cheaper append: one write
+        through the locked file (`FlockLock`), and one fsync per finished
+        trial (`_needs_sync`), made after the lock is released so that
+        other workers do not wait on the disk. Optuna's own backend syncs
+        every record under the lock: ~15 records per trial at ~6 ms each on
+        the development machine's disk, serialised across all workers. A
+        process killed (even by SIGKILL) loses nothing written: the kernel
+        holds it; a torn record is repaired by `check_journal`."""
+
+        def __init__(self, path: str, lock: FlockLock):
+            super().__init__(path, lock_obj=lock)
+            self.modesel_path = path
+            self.modesel_lock = lock
+
+        def append_logs(self, logs: list) -> None:
+            data = ("\n".join(json.dumps(log, separators=(",", ":")) for log in logs) + "\n").encode("utf-8")
+            with self.modesel_lock as lock:
+                view = memoryview(data)
+                while view:                     # O_APPEND: every write goes to the end
+                    view = view[os.write(lock.fd, view):]
+            if any(_needs_sync(log) for log in logs):
+                fd = os.open(self.modesel_path, os.O_RDONLY)
+                try:
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
+
+    return _Backend
+
+
+def JournalBackend(path: str, lock: FlockLock):
+    """The journal backend of `open_storage` (see `_journal_backend_class`)."""
+    return _journal_backend_class()(path, lock)
 
 
 def _is_record(line: bytes) -> bool:
