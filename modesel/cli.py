@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 
@@ -85,6 +86,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    # The engine's matrices have a few hundred rows at most: OpenBLAS worker
+    # threads only add synchronisation (measured 40-100 ms instead of 0.3 ms per
+    # right-hand side on a loaded machine, README "Benchmarks"). One thread for
+    # the whole command (linearize, workers, reports) unless the user set it;
+    # effective only before numpy is first imported, as here.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     parser = build_parser(_command_of(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
