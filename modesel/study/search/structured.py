@@ -1,38 +1,47 @@
 """The structured search (``[search] sampler = "fieldwise"``): the paper's
 flowchart, automated.
 
-It uses two properties of the problem: each output channel is governed
-mainly by one field (the tower-top fore-aft deflection by tower_fa, the
-blade-tip out-of-plane deflection by blade_flap, ...), and a set's error is
-its worst channel. So one simulation in which only field f differs from a
-base set tells how good f's choice is, and the error of a combination is
-predicted from those one-field runs. The cost objective also has structure:
-a field with more modes costs more (more DOFs, a stiffer highest mode), so
-counts are tried in increasing order.
+It uses two properties of the problem: the fields are nearly separable (each
+output channel is moved by few fields: the tower-top fore-aft deflection by
+tower_fa, the blade-tip in-plane deflection by blade_edge AND blade_flap),
+and a set's error is its worst channel. The cost objective also has
+structure: a field with more modes costs more, so counts are tried in
+increasing order.
 
 Level by level, loosest first:
 
-1. **Sweep.** The base set is each field's first choice at its fewest
-   modes. For count k = 1, 2, ...: for every field that does not meet the
-   level yet, each choice (family, k modes) of that field with the other
-   fields at the base. The channels of field f are those whose error varies
-   most when only f varies (learned from these runs, nothing declared).
-   Field f meets the level once one of its choices does (its error: the
-   worst of its channels); more modes would only cost more.
-2. **Combine.** The combinations whose predicted error (per field, the run
-   in which only that field had that choice) meets the level with a 15 %
-   margin, cheapest predicted first (predicted cost: the dearest of the
-   one-field runs, then the number of modes). The level is settled once a
-   simulated set meets it at a cost no higher than every unsimulated
-   candidate's prediction. Then the next level.
+1. **Descent** (coordinate descent, Gauss-Seidel). The base set starts at
+   each field's first choice with its fewest modes. For count k = 1, 2, ...:
+   each field that moves a channel the base set misses (every field while
+   nothing is known) is swept: each choice (family, k modes) of that field
+   with the other fields at the base. The base then takes that field's best
+   choice (mean log error over the channels, then the worst channel), and
+   the next field is swept from the new base, so a poor base choice of one
+   field does not spoil the other's sweep. A channel belongs to every field
+   whose change alone moved its error by more than 25 % (learned from the
+   simulated sets, nothing declared). The descent stops when the base set
+   meets the level; the next level continues from there (a field's sweep at
+   k modes is done once).
+2. **Combine.** Per channel, an additive model of the error over the
+   fields' choices, e = sum_f u_f(choice), fitted by least squares on every
+   simulated set, predicts each combination of simulated choices. The
+   combinations predicted to meet the level with a 15 % margin are proposed
+   cheapest predicted first (predicted cost: the dearest of the choices'
+   cost bounds, a choice's bound being the cheapest simulated set holding
+   it; then the number of modes). The level is settled once a simulated set
+   meets it at a cost no higher than every unsimulated candidate's bound.
+   Then the next level.
 
 After the last level the margin widens (50 %, 150 %), and at the end any set
 not yet simulated is proposed.
 
 The strategy sees only the records of simulated sets (the set, its error per
-channel, its cost), as `modesel run` stores them; it is deterministic for a
-given seed (which orders the fields and the families of one count) and
-history. Continuous family parameters are held at the middle of their range.
+channel, its cost), as `modesel run` stores them; it keeps no state (the
+descent is replayed from the records at each proposal) and is deterministic
+for a given seed (which orders the fields and the families of one count) and
+history. A set being simulated by another worker counts as taken; a sweep
+waiting for it re-bases on the sets known. Continuous family parameters are
+held at the middle of their range.
 """
 from __future__ import annotations
 
