@@ -12,8 +12,8 @@ Level by level, loosest first:
 
 1. **Descent** (coordinate descent, Gauss-Seidel). The base set starts at
    each field's first choice with its fewest modes. For count k = 1, 2, ...:
-   each field that moves a channel the base set misses (every field while
-   nothing is known) is swept: each choice (family, k modes) of that field
+   each field that moves a channel the base set misses (a field not varied
+   yet counts as moving every channel) is swept: each choice (family, k modes) of that field
    with the other fields at the base. The base then takes that field's best
    choice (mean log error over the channels, then the worst channel), and
    the next field is swept from the new base, so a poor base choice of one
@@ -104,11 +104,13 @@ class Fieldwise:
         return self._set_of(fields)
 
     # --- what the records tell -------------------------------------------------------------------
-    def _owners(self, records: dict) -> dict:
-        """{channel: set of fields}: every field whose change alone moved that channel's error
-        by more than `MOVED` (pairs of simulated sets that differ in that field only)."""
+    def _owners(self, records: dict) -> tuple:
+        """({channel: set of fields}, varied): every field whose change alone moved that
+        channel's error by more than `MOVED` (pairs of simulated sets that differ in that field
+        only); `varied`, the fields such a pair exists for. A field not varied yet may move
+        any channel."""
         good = [r for r in records.values() if math.isfinite(r.error) and r.errors]
-        owners = {}
+        owners, varied = {}, set()
         for f in self.fields:
             groups = {}
             for r in good:
@@ -117,11 +119,12 @@ class Fieldwise:
             for group in groups.values():
                 if len(group) < 2:
                     continue
+                varied.add(f)
                 for ch in group[0].errors:
                     e = [max(r.errors.get(ch, 0.0), 1e-12) for r in group]
                     if max(e) > MOVED * min(e):
                         owners.setdefault(ch, set()).add(f)
-        return owners
+        return owners, varied
 
     @staticmethod
     def _score(rec: Record) -> tuple:
@@ -134,12 +137,13 @@ class Fieldwise:
 
     def _descend(self, records: dict, taken: set, level: float, state: dict):
         """Coordinate descent towards `level`, replayed from the records: for k = 1, 2, ...,
-        each field that moves a channel the base set misses (all fields while nothing is
-        known) is swept at k modes with the other fields at the base; then the base takes that
+        each field that moves a channel the base set misses (a field not varied yet: any
+        channel) is swept at k modes with the other fields at the base; then the base takes that
         field's best choice (`_score`) and the next field is swept from there. Stops once the
         base set meets `level`. `state` ({"base", "done"}) carries over from looser levels.
         Returns the next sweep set to simulate, or None when this level's descent is over."""
-        owners = self._owners(records)
+        owners, varied = self._owners(records)
+        unknown = set(self.fields) - varied
         counts = sorted({m.count for f in self.fields for m in self.choices[f]})
         for k in counts:
             for f in self.fields:
@@ -151,7 +155,7 @@ class Fieldwise:
                     continue
                 if rec is not None and rec.errors:
                     failing = [ch for ch, e in rec.errors.items() if e > level]
-                    if not any(f in owners.get(ch, set(self.fields)) for ch in failing):
+                    if not any(f in owners.get(ch, set()) | unknown for ch in failing):
                         continue
                 sweep = [self._set_of({**state["base"], f: m}) for m in self.choices[f] if m.count == k]
                 for ms in sweep:
