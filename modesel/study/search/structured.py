@@ -153,11 +153,13 @@ class Fieldwise:
                     return None
                 if (f, k) in state["done"]:
                     continue
-                if rec is not None and rec.errors:
-                    failing = [ch for ch, e in rec.errors.items() if e > level]
-                    if not any(f in owners.get(ch, set()) | unknown for ch in failing):
-                        continue
                 sweep = [self._set_of({**state["base"], f: m}) for m in self.choices[f] if m.count == k]
+                started = any(ms.label() in taken for ms in sweep if ms.label() != base.label())
+                if rec is not None and rec.errors and not started:
+                    # a channel nobody moved yet may belong to any field
+                    failing = [ch for ch, e in rec.errors.items() if e > level]
+                    if not any(f in (owners.get(ch) or set(self.fields)) | unknown for ch in failing):
+                        continue
                 for ms in sweep:
                     if ms.label() not in taken:
                         return ms
