@@ -21,10 +21,12 @@ had been simulated, as a fraction of the 256 (a miss counts as 1).
 Strategies:
 - `tpe`: Optuna's TPE (multi-objective, error and cost), as `modesel run`.
 - `fieldwise`: `modesel.study.search.structured.Fieldwise`, the one
-  ``[search] sampler = "fieldwise"`` runs: one field at a time from a base
-  set, counts in increasing order, each channel's error attributed to the
-  field that moves it, a field stopped once it meets the tightest level; then
-  the combinations predicted to meet each level, cheapest predicted first.
+  ``[search] sampler = "fieldwise"`` runs: coordinate descent, counts in
+  increasing order, one field at a time from the best set found so far (the
+  base takes each field's best choice before the next field is swept), a
+  channel belonging to every field that moves it; then the combinations an
+  additive per-channel error model (fitted on every simulated set) predicts
+  to meet each level, cheapest predicted first.
   It is given the levels 3.5, 1, 0.5, 0.2 and 0.1 %.
 
     python3 benchmarks/bench_search_efficiency.py [--subspace tower|blade] [--seeds 5] [--strategy tpe fieldwise] [--table CACHE.json]

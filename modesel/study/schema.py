@@ -85,9 +85,9 @@ TABLES = (
     Table("search", "What is searched and how.", (
         Key("fields", "table", REQUIRED, "", "one table per searched field (below); other fields keep the scene's modes"),
         Key("sampler", "string", "tpe", "", "Optuna sampler, seeded: tpe, nsga2, random, or fieldwise "
-            "(structured: one field at a time from a base set, counts in increasing order, each "
-            "channel's error attributed to the field that moves it; then the combinations predicted "
-            "to meet each level, cheapest first; modesel.study.search.structured)", SAMPLER_NAMES),
+            "(structured: coordinate descent, one field at a time from the best set so far, counts in "
+            "increasing order, each channel's error attributed to every field that moves it; then the "
+            "combinations predicted to meet each level, cheapest first; modesel.study.search.structured)", SAMPLER_NAMES),
         Key("cost", "string", "wall_time", "", "cost objective: wall_time (wall seconds per simulated second), "
             "model (right-hand-side evaluations x calibrated unit cost per simulated second: "
             "deterministic) or dofs (number of degrees of freedom)", COST_NAMES),

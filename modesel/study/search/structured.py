@@ -1,38 +1,47 @@
 """The structured search (``[search] sampler = "fieldwise"``): the paper's
 flowchart, automated.
 
-It uses two properties of the problem: each output channel is governed
-mainly by one field (the tower-top fore-aft deflection by tower_fa, the
-blade-tip out-of-plane deflection by blade_flap, ...), and a set's error is
-its worst channel. So one simulation in which only field f differs from a
-base set tells how good f's choice is, and the error of a combination is
-predicted from those one-field runs. The cost objective also has structure:
-a field with more modes costs more (more DOFs, a stiffer highest mode), so
-counts are tried in increasing order.
+It uses two properties of the problem: the fields are nearly separable (each
+output channel is moved by few fields: the tower-top fore-aft deflection by
+tower_fa, the blade-tip in-plane deflection by blade_edge AND blade_flap),
+and a set's error is its worst channel. The cost objective also has
+structure: a field with more modes costs more, so counts are tried in
+increasing order.
 
 Level by level, loosest first:
 
-1. **Sweep.** The base set is each field's first choice at its fewest
-   modes. For count k = 1, 2, ...: for every field that does not meet the
-   level yet, each choice (family, k modes) of that field with the other
-   fields at the base. The channels of field f are those whose error varies
-   most when only f varies (learned from these runs, nothing declared).
-   Field f meets the level once one of its choices does (its error: the
-   worst of its channels); more modes would only cost more.
-2. **Combine.** The combinations whose predicted error (per field, the run
-   in which only that field had that choice) meets the level with a 15 %
-   margin, cheapest predicted first (predicted cost: the dearest of the
-   one-field runs, then the number of modes). The level is settled once a
-   simulated set meets it at a cost no higher than every unsimulated
-   candidate's prediction. Then the next level.
+1. **Descent** (coordinate descent, Gauss-Seidel). The base set starts at
+   each field's first choice with its fewest modes. For count k = 1, 2, ...:
+   each field that moves a channel the base set misses (a field not varied
+   yet counts as moving every channel) is swept: each choice (family, k modes) of that field
+   with the other fields at the base. The base then takes that field's best
+   choice (mean log error over the channels, then the worst channel), and
+   the next field is swept from the new base, so a poor base choice of one
+   field does not spoil the other's sweep. A channel belongs to every field
+   whose change alone moved its error by more than 25 % (learned from the
+   simulated sets, nothing declared). The descent stops when the base set
+   meets the level; the next level continues from there (a field's sweep at
+   k modes is done once).
+2. **Combine.** Per channel, an additive model of the error over the
+   fields' choices, e = sum_f u_f(choice), fitted by least squares on every
+   simulated set, predicts each combination of simulated choices. The
+   combinations predicted to meet the level with a 15 % margin are proposed
+   cheapest predicted first (predicted cost: the dearest of the choices'
+   cost bounds, a choice's bound being the cheapest simulated set holding
+   it; then the number of modes). The level is settled once a simulated set
+   meets it at a cost no higher than every unsimulated candidate's bound.
+   Then the next level.
 
 After the last level the margin widens (50 %, 150 %), and at the end any set
 not yet simulated is proposed.
 
 The strategy sees only the records of simulated sets (the set, its error per
-channel, its cost), as `modesel run` stores them; it is deterministic for a
-given seed (which orders the fields and the families of one count) and
-history. Continuous family parameters are held at the middle of their range.
+channel, its cost), as `modesel run` stores them; it keeps no state (the
+descent is replayed from the records at each proposal) and is deterministic
+for a given seed (which orders the fields and the families of one count) and
+history. A set being simulated by another worker counts as taken; a sweep
+waiting for it re-bases on the sets known. Continuous family parameters are
+held at the middle of their range.
 """
 from __future__ import annotations
 
@@ -45,7 +54,7 @@ import optuna
 from modesel.modeset import FieldModes, ModeSet
 
 MARGINS = (0.15, 0.5, 1.5)      # relative margin on the predicted error, widened in turn
-COMBO_LIMIT = 8                 # cheapest feasible choices per field combined
+MOVED = 1.25                    # a field owns a channel whose error its change alone moved by this factor
 
 
 class Record:
@@ -86,124 +95,172 @@ class Fieldwise:
     def _canonical(self, field, fm):
         return self.space.canonical(ModeSet({field: fm}))[field]
 
+    def _set_of(self, fields: dict) -> ModeSet:
+        return ModeSet({f: fields[f] for f in (s.field for s in self.space.spec.fields)})
+
     def _set(self, **changed) -> ModeSet:
         fields = dict(self.base)
         fields.update(changed)
-        return ModeSet({f: fields[f] for f in (s.field for s in self.space.spec.fields)})
+        return self._set_of(fields)
 
     # --- what the records tell -------------------------------------------------------------------
-    def _one_field_runs(self, records: dict) -> dict:
-        """{field: {choice label: Record}} of the simulated sets differing from the base in that
-        field only (the base itself counts for every field)."""
-        out = {f: {} for f in self.fields}
-        for rec in records.values():
-            differ = [f for f in self.fields if rec.modeset[f].label() != self.base[f].label()]
-            if len(differ) <= 1:
-                for f in (differ or self.fields):
-                    out[f][rec.modeset[f].label()] = rec
-        return out
+    def _owners(self, records: dict) -> tuple:
+        """({channel: set of fields}, varied): every field whose change alone moved that
+        channel's error by more than `MOVED` (pairs of simulated sets that differ in that field
+        only); `varied`, the fields such a pair exists for. A field not varied yet may move
+        any channel."""
+        good = [r for r in records.values() if math.isfinite(r.error) and r.errors]
+        owners, varied = {}, set()
+        for f in self.fields:
+            groups = {}
+            for r in good:
+                key = tuple(r.modeset[g].label() for g in self.fields if g != f)
+                groups.setdefault(key, []).append(r)
+            for group in groups.values():
+                if len(group) < 2:
+                    continue
+                varied.add(f)
+                for ch in group[0].errors:
+                    e = [max(r.errors.get(ch, 0.0), 1e-12) for r in group]
+                    if max(e) > MOVED * min(e):
+                        owners.setdefault(ch, set()).add(f)
+        return owners, varied
 
     @staticmethod
-    def _attribution(runs: dict) -> dict:
-        """{channel: field}: the field whose one-field runs move that channel's error most
-        (spread of log error)."""
-        spread = {}
-        for f, recs in runs.items():
-            good = [r for r in recs.values() if math.isfinite(r.error) and r.errors]
-            if len(good) < 2:
-                continue
-            for ch in good[0].errors:
-                logs = np.log([max(r.errors.get(ch, np.nan), 1e-12) for r in good])
-                spread.setdefault(ch, {})[f] = float(np.nanmax(logs) - np.nanmin(logs))
-        return {ch: max(s, key=s.get) for ch, s in spread.items()}
+    def _score(rec: Record) -> tuple:
+        """Descent order of simulated sets: mean log error over the channels (every channel
+        counts, so a field is judged by what it moves even when another field's channel is
+        the worst), then the worst channel."""
+        if not math.isfinite(rec.error) or not rec.errors:
+            return (math.inf, math.inf)
+        return (float(np.mean(np.log([max(e, 1e-12) for e in rec.errors.values()]))), rec.error)
 
-    @staticmethod
-    def _field_error(rec: Record, field: str, owner: dict) -> float:
-        if not math.isfinite(rec.error):
-            return math.inf
-        mine = [e for ch, e in rec.errors.items() if owner.get(ch) == field]
-        return max(mine) if mine else 0.0
+    def _descend(self, records: dict, taken: set, level: float, state: dict):
+        """Coordinate descent towards `level`, replayed from the records: for k = 1, 2, ...,
+        each field that moves a channel the base set misses (a field not varied yet: any
+        channel) is swept at k modes with the other fields at the base; then the base takes that
+        field's best choice (`_score`) and the next field is swept from there. Stops once the
+        base set meets `level`. `state` ({"base", "done"}) carries over from looser levels.
+        Returns the next sweep set to simulate, or None when this level's descent is over."""
+        owners, varied = self._owners(records)
+        unknown = set(self.fields) - varied
+        counts = sorted({m.count for f in self.fields for m in self.choices[f]})
+        for k in counts:
+            for f in self.fields:
+                base = self._set_of(state["base"])
+                rec = records.get(base.label())
+                if rec is not None and rec.error <= level:
+                    return None
+                if (f, k) in state["done"]:
+                    continue
+                sweep = [self._set_of({**state["base"], f: m}) for m in self.choices[f] if m.count == k]
+                started = any(ms.label() in taken for ms in sweep if ms.label() != base.label())
+                if rec is not None and rec.errors and not started:
+                    # a channel nobody moved yet may belong to any field
+                    failing = [ch for ch, e in rec.errors.items() if e > level]
+                    if not any(f in (owners.get(ch) or set(self.fields)) | unknown for ch in failing):
+                        continue
+                for ms in sweep:
+                    if ms.label() not in taken:
+                        return ms
+                # all simulated (or being simulated: judged on those known): re-base on the best
+                known = [records[ms.label()] for ms in sweep + [base] if ms.label() in records]
+                if known:
+                    best = min(known, key=lambda r: (self._score(r), r.cost, r.modeset.label()))
+                    state["base"][f] = best.modeset[f]
+                state["done"].add((f, k))
+        return None
+
+    def _predict(self, records: dict):
+        """Per channel, an additive model of the error over the fields' choices,
+        e(set) = sum_f u_f(choice), fitted (least squares) on every simulated set; and a
+        cost bound per choice (cheapest simulated set holding it). Returns
+        ({field: [choices]}, {field: error arrays [choice, channel]}, {field: cost array}, channels)."""
+        good = [r for r in records.values() if math.isfinite(r.error) and r.errors]
+        if not good:
+            return None
+        channels = sorted(good[0].errors)
+        index, known = {}, {}
+        for f in self.fields:
+            labels = {r.modeset[f].label(): r.modeset[f] for r in good}
+            known[f] = [m for m in self.choices[f] if m.label() in labels]
+            for m in known[f]:
+                index[(f, m.label())] = len(index)
+        A = np.zeros((len(good), len(index)))
+        for i, r in enumerate(good):
+            for f in self.fields:
+                A[i, index[(f, r.modeset[f].label())]] = 1.0
+        E = np.array([[r.errors.get(ch, np.nan) for ch in channels] for r in good])
+        E = np.where(np.isfinite(E), E, np.nanmax(np.where(np.isfinite(E), E, 0.0)))
+        u = np.linalg.lstsq(A, E, rcond=None)[0]
+        err = {f: np.array([u[index[(f, m.label())]] for m in known[f]]) for f in self.fields}
+        cost = {f: np.array([min(r.cost for r in good if r.modeset[f].label() == m.label()) for m in known[f]])
+                for f in self.fields}
+        return known, err, cost, channels
+
+    def _combine_next(self, records, model, taken, level, margin):
+        """The cheapest combination of simulated choices whose predicted error (`_predict`)
+        meets `level` with `margin`, not simulated yet, that could still be cheaper than the
+        cheapest simulated set meeting it. Predicted cost: the dearest of the choices' cost
+        bounds, then the number of modes."""
+        if model is None:
+            return None
+        known, err, cost, _ = model
+        shape = [len(known[f]) for f in self.fields]
+        total = np.zeros(shape + [err[self.fields[0]].shape[1]])
+        worst_cost = np.zeros(shape)
+        modes = np.zeros(shape)
+        for i, f in enumerate(self.fields):
+            axes = [1] * len(self.fields)
+            axes[i] = shape[i]
+            total = total + err[f].reshape(axes + [-1])
+            worst_cost = np.maximum(worst_cost, cost[f].reshape(axes))
+            modes = modes + np.array([m.count for m in known[f]], float).reshape(axes)
+        predicted = total.max(axis=-1)
+        met = [r.cost for r in records.values() if r.error <= level]
+        best = min(met) if met else math.inf
+        ok = np.argwhere((predicted <= level * (1 + margin)) & (worst_cost <= best))
+        order = sorted(ok.tolist(), key=lambda ix: (worst_cost[tuple(ix)], modes[tuple(ix)], predicted[tuple(ix)], ix))
+        for ix in order:
+            ms = self._set_of({f: known[f][j] for f, j in zip(self.fields, ix)})
+            if ms.label() not in taken:
+                return ms
+        return None
 
     # --- the proposal ------------------------------------------------------------------------------
     def propose(self, records: dict, pending=()) -> ModeSet | None:
         """The next set to simulate. `records`: {label: Record} of the simulated sets;
         `pending`: labels being simulated. None when every set of the space was simulated.
-        Level by level, loosest first: sweep until every field meets the level (or has no
-        count left), then the combinations predicted to meet it; then wider margins."""
+        Level by level, loosest first: the descent until the base set meets the level, then
+        the combinations predicted to meet it; then wider margins; then the rest."""
         taken = set(records) | set(pending)
-        base = self._set()
-        if base.label() not in taken:
-            return base
-        runs = self._one_field_runs(records)
-        owner = self._attribution(runs)
+        model = self._predict(records)
+        state = {"base": dict(self.base), "done": set()}
         for level in self.levels:
-            ms = self._sweep_next(runs, owner, taken, level)
+            ms = self._descend(records, taken, level, state)
             if ms is None:
-                ms = self._combine_next(records, runs, owner, taken, level, MARGINS[0])
+                ms = self._combine_next(records, model, taken, level, MARGINS[0])
             if ms is not None:
                 return ms
         for margin in MARGINS[1:]:
             for level in self.levels:
-                ms = self._combine_next(records, runs, owner, taken, level, margin)
+                ms = self._combine_next(records, model, taken, level, margin)
                 if ms is not None:
                     return ms
         # every prediction settled: the rest of the space, fewest modes first, then by the
-        # one-field runs' costs where known
+        # choices' cost bounds where known
+        bound = {}
+        if model is not None:
+            for f in self.fields:
+                for m, c in zip(model[0][f], model[2][f]):
+                    bound[(f, m.label())] = c
         rest = []
         for combo in itertools.product(*(self.choices[f] for f in self.fields)):
             ms = self._set(**dict(zip(self.fields, combo)))
             if ms.label() not in taken:
-                known = [runs[f][m.label()].cost for f, m in zip(self.fields, combo) if m.label() in runs[f]]
+                known = [bound[(f, m.label())] for f, m in zip(self.fields, combo) if (f, m.label()) in bound]
                 rest.append((sum(m.count for m in combo), -len(known), max(known, default=0.0), ms.label(), ms))
         return min(rest, key=lambda r: r[:4])[4] if rest else None
-
-    def _sweep_next(self, runs, owner, taken, level):
-        """The next one-field run, fewest modes first, of a field none of whose choices with
-        fewer modes met `level`."""
-        counts = sorted({m.count for f in self.fields for m in self.choices[f]})
-        for k in counts:
-            for f in self.fields:
-                if any(self._field_error(runs[f][m.label()], f, owner) <= level
-                       for m in self.choices[f] if m.count < k and m.label() in runs[f]):
-                    continue
-                for m in self.choices[f]:
-                    if m.count == k:
-                        ms = self._set(**{f: m})
-                        if ms.label() not in taken:
-                            return ms
-        return None
-
-    def _predict(self, runs, owner, combo: dict) -> tuple:
-        """(predicted error, predicted cost key) of `combo` {field: choice}: the worst of the
-        fields' errors in their one-field runs; the dearest of those runs, then the number of
-        modes, then the sum of their costs."""
-        recs = {f: runs[f][m.label()] for f, m in combo.items()}
-        error = max(self._field_error(rec, f, owner) for f, rec in recs.items())
-        cost = max(r.cost for r in recs.values())
-        return error, (cost, sum(m.count for m in combo.values()), sum(r.cost for r in recs.values()))
-
-    def _combine_next(self, records, runs, owner, taken, level, margin):
-        """The cheapest predicted combination meeting `level` with `margin` that is not
-        simulated yet and could still be cheaper than the cheapest set known to meet it."""
-        per_field = []
-        for f in self.fields:
-            ok = [m for m in self.choices[f] if m.label() in runs[f]
-                  and self._field_error(runs[f][m.label()], f, owner) <= level * (1 + margin)]
-            ok.sort(key=lambda m: (runs[f][m.label()].cost, m.count))
-            per_field.append(ok[:COMBO_LIMIT])
-        candidates = []
-        for combo in itertools.product(*per_field):
-            c = dict(zip(self.fields, combo))
-            candidates.append((self._predict(runs, owner, c)[1], self._set(**c)))
-        candidates.sort(key=lambda kc: kc[0])
-        met = [r.cost for r in records.values() if r.error <= level]
-        best = min(met) if met else math.inf
-        for key, ms in candidates:
-            if key[0] > best:
-                break
-            if ms.label() not in taken:
-                return ms
-        return None
 
 
 def history(study, space, before: int | None = None) -> tuple:
