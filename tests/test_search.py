@@ -768,6 +768,46 @@ def test_fieldwise_in_two_processes_simulates_each_set_once(tmp_path):
     assert len(labels) == len(set(labels)) >= 12
 
 
+class SleepySimulate:
+    """The fake engine taking a random 0-40 ms per set, so that parallel workers
+    finish in an order that changes from run to run."""
+
+    def __init__(self, seed):
+        self.seed = seed
+
+    def __call__(self, scene, modeset=None, *, tmax=None, dt=None):
+        import os
+        import time
+        time.sleep(np.random.default_rng([self.seed, os.getpid(), time.monotonic_ns()]).uniform(0.0, 0.04))
+        return fake_simulate(scene, modeset, tmax=tmax, dt=dt)
+
+
+def test_fieldwise_gives_the_same_sets_whatever_the_workers_and_their_timing(tmp_path):
+    """Issue 11: same seed, same study, same ranked table and Pareto front. The fieldwise
+    sampler proposes in rounds from the records of earlier rounds, so 1 or 2 workers with
+    random finishing orders simulate the same sets in the same trial order."""
+    import cloudpickle
+    import sys
+    from modesel.study.results import write_results
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    study = _fieldwise_study(tmp_path, n_trials=14)
+    tables = []
+    for run, n_jobs in enumerate((2, 2, 1)):
+        out = tmp_path / f"out{run}"
+        outcome = run_search(study, out_dir=out, n_jobs=n_jobs,
+                             engine=Engine(fake_load_scene, SleepySimulate(run)), progress=False)
+        write_results(out, outcome.optuna_study, study)
+        timing = ["wall_time_s", "speed_x_real_time"]
+        read = [pd.read_csv(out / name, header=[0, 1]).droplevel(1, axis=1).drop(columns=timing, errors="ignore")
+                for name in ("trials.csv", "pareto.csv")]
+        order = [t.user_attrs.get("modeset") for t in sorted(outcome.optuna_study.trials, key=lambda t: t.number)]
+        tables.append((read[0], read[1], order))
+    for other in tables[1:]:
+        assert other[2] == tables[0][2]
+        pd.testing.assert_frame_equal(other[0], tables[0][0])
+        pd.testing.assert_frame_equal(other[1], tables[0][1])
+
+
 def test_fieldwise_workers_share_one_plan(tmp_path):
     """Workers get different sampler seeds; the strategy (its base set and order) follows the
     study's seed, so every worker and a resumed run continue the same plan."""

@@ -39,14 +39,18 @@ The strategy sees only the records of simulated sets (the set, its error per
 channel, its cost), as `modesel run` stores them; it keeps no state (the
 descent is replayed from the records at each proposal) and is deterministic
 for a given seed (which orders the fields and the families of one count) and
-history. A set being simulated by another worker counts as taken; a sweep
-waiting for it re-bases on the sets known. Continuous family parameters are
+history. In `modesel run` (`FieldwiseSampler`) the sets are proposed in rounds
+of `ROUND` trials: each round's proposals come from the records of the earlier
+rounds only (a worker waits for the previous round to end), so the sets and
+their order do not depend on the number of workers or on which trial finished
+first. Continuous family parameters are
 held at the middle of their range.
 """
 from __future__ import annotations
 
 import itertools
 import math
+import time
 
 import numpy as np
 import optuna
@@ -54,6 +58,8 @@ import optuna
 from modesel.modeset import FieldModes, ModeSet
 
 MARGINS = (0.15, 0.5, 1.5)      # relative margin on the predicted error, widened in turn
+ROUND = 4                       # sets proposed per round from the records of the earlier rounds
+POLL_S = 0.2                    # how often a worker looks whether the previous round has finished
 MOVED = 1.25                    # a field owns a channel whose error its change alone moved by this factor
 
 
@@ -263,15 +269,23 @@ class Fieldwise:
         return min(rest, key=lambda r: r[:4])[4] if rest else None
 
 
-def history(study, space, before: int | None = None) -> tuple:
+def finished_before(study, number: int) -> bool:
+    """True when every trial numbered below `number` has ended (complete, failed or pruned)."""
+    live = (optuna.trial.TrialState.RUNNING, optuna.trial.TrialState.WAITING)
+    return all(t.state not in live for t in study.get_trials(deepcopy=False) if t.number < number)
+
+
+def history(study, space, before: int | None = None, below: int | None = None) -> tuple:
     """({label: Record} of the simulated sets, [labels being simulated], number of running trials
     numbered below `before` whose set is not known yet) of an Optuna study, read from what the
     objective stores: user attributes modeset_json and errors of complete trials (a repeat,
     ``duplicate_of``, adds nothing), failed trials as error inf, and the parameters of running or
-    queued trials."""
+    queued trials. `below`: only the trials numbered below it."""
     records, pending, unknown = {}, [], 0
     states = optuna.trial.TrialState
     for t in study.get_trials(deepcopy=False):
+        if below is not None and t.number >= below:
+            continue
         attrs = t.user_attrs
         if t.state == states.COMPLETE and "errors" in attrs and t.values is not None:
             ms = space.canonical(ModeSet.from_dict(attrs["modeset_json"]))
@@ -313,11 +327,17 @@ class FieldwiseSampler(optuna.samplers.BaseSampler):
         return {}
 
     def before_trial(self, study, trial):
-        records, pending, unknown = history(study, self.space, before=trial.number)
-        # earlier trials still choosing their set (workers started together) took the first
-        # proposals: skip as many
-        pending = list(pending)
-        for _ in range(unknown + 1):
+        # Rounds of ROUND trials by number: the proposals of a round come from the records of
+        # the earlier rounds only, the i-th trial of the round taking the i-th proposal. So the
+        # sets, and their order, depend neither on the number of workers nor on which trial
+        # happened to finish first: same seed, same study, same results. A worker waits for
+        # the previous round to end (it never waits on its own round).
+        start = trial.number - trial.number % ROUND
+        while not finished_before(study, start):
+            time.sleep(POLL_S)
+        records, _, _ = history(study, self.space, below=start)
+        pending = []
+        for _ in range(trial.number - start + 1):
             modeset = self.strategy.propose(records, pending)
             if modeset is None:
                 return
