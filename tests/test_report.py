@@ -297,3 +297,20 @@ def test_what_ran_passes_on_the_inert_settings_warnings():
     assert rows[0]["n_dofs"] == 2 and rows[0]["dofs"] == "TFA1, GeAz"
     assert "aero" not in rows[0]["effects"].split(", ") and "wind" in rows[0]["effects"]
     assert any("the wind loads nothing" in w for w in rows[0]["warnings"])
+
+
+def test_tolerance_sentences_name_the_model_cost_they_rank_by():
+    """With cost = "model" the sentence gives the ranked (model) cost and the measured wall
+    time separately, and the ratio is of model costs."""
+    from types import SimpleNamespace
+    from modesel.study.report import tolerance_sentences
+    ranked = pd.DataFrame([
+        dict(trial=3, modeset="a:1", n_dofs=3, error=0.02, cost=0.10, wall_time_s=2.0, simulated_time_s=100.0,
+             status="COMPLETE", meets_tolerance=True),
+        dict(trial=5, modeset="a:2", n_dofs=5, error=0.005, cost=0.15, wall_time_s=1.0, simulated_time_s=100.0,
+             status="COMPLETE", meets_tolerance=True)])
+    study = SimpleNamespace(compare=SimpleNamespace(levels=[0.035, 0.01]), search=SimpleNamespace(cost="model"))
+    text = tolerance_sentences(ranked, study)
+    assert text[0] == "3.5 % needs a:1 (3 DOFs, model cost 0.1 s per simulated s, measured 0.02 s)."
+    assert text[1] == ("1 % needs a:2 (5 DOFs, model cost 0.15 s per simulated s, measured 0.01 s) "
+                       "at 1.5 times the model cost.")

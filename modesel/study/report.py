@@ -60,12 +60,16 @@ def tolerance_sentences(ranked: pd.DataFrame, study) -> list[str]:
             out.append(f"{_pct(level)} is met by the same set.")
             continue
         wall_per_s = row["wall_time_s"] / row["simulated_time_s"] if row["simulated_time_s"] else math.nan
-        text = (f"{_pct(level)} needs {row['modeset']} ({int(row['n_dofs'])} DOFs, "
-                f"{wall_per_s:.3g} s per simulated s)")
+        kind = getattr(getattr(study, "search", None), "cost", "wall_time")
+        if kind == "model":      # the ranked cost first, the measured wall time for information
+            cost = f"model cost {row['cost']:.3g} s per simulated s, measured {wall_per_s:.3g} s"
+        else:
+            cost = f"{wall_per_s:.3g} s per simulated s"
+        text = f"{_pct(level)} needs {row['modeset']} ({int(row['n_dofs'])} DOFs, {cost})"
         if base is None:
             base = row
         elif base["cost"] > 0:
-            text += f" at {row['cost'] / base['cost']:.3g} times the cost"
+            text += f" at {row['cost'] / base['cost']:.3g} times the {'model ' if kind == 'model' else ''}cost"
         out.append(text + ".")
     return out
 
