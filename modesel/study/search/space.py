@@ -66,22 +66,6 @@ class SearchSpace:
                 out[f"{space.field}.{fm.family}.{p}"] = value
         return out
 
-    def from_params(self, params: dict) -> ModeSet | None:
-        """The set that trial parameters `params` describe (inverse of `params`); None while
-        a field's family, count or parameters are not all there yet (a running trial)."""
-        fields = {}
-        for space in self.spec.fields:
-            family = params.get(f"{space.field}.family")
-            count = params.get(f"{space.field}.{family}.count")
-            if family is None or count is None:
-                return None
-            fam = space.family(family)
-            values = {p: params.get(f"{space.field}.{family}.{p}") for p in fam.params}
-            if any(v is None for v in values.values()):
-                return None
-            fields[space.field] = FieldModes(family, int(count), values)
-        return ModeSet(fields)
-
     def random_set(self, rng) -> ModeSet:
         """A uniformly drawn family, count and parameters per field."""
         fields = {}

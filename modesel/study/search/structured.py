@@ -275,16 +275,14 @@ def finished_before(study, number: int) -> bool:
     return all(t.state not in live for t in study.get_trials(deepcopy=False) if t.number < number)
 
 
-def history(study, space, before: int | None = None, below: int | None = None) -> tuple:
-    """({label: Record} of the simulated sets, [labels being simulated], number of running trials
-    numbered below `before` whose set is not known yet) of an Optuna study, read from what the
-    objective stores: user attributes modeset_json and errors of complete trials (a repeat,
-    ``duplicate_of``, adds nothing), failed trials as error inf, and the parameters of running or
-    queued trials. `below`: only the trials numbered below it."""
-    records, pending, unknown = {}, [], 0
+def history(study, space, below: int) -> dict:
+    """{label: Record} of the sets simulated by the trials numbered below `below` of an Optuna
+    study, read from what the objective stores: user attributes modeset_json and errors of
+    complete trials (a repeat, ``duplicate_of``, adds nothing), failed trials as error inf."""
+    records = {}
     states = optuna.trial.TrialState
     for t in study.get_trials(deepcopy=False):
-        if below is not None and t.number >= below:
+        if t.number >= below:
             continue
         attrs = t.user_attrs
         if t.state == states.COMPLETE and "errors" in attrs and t.values is not None:
@@ -293,13 +291,7 @@ def history(study, space, before: int | None = None, below: int | None = None) -
         elif t.state == states.FAIL and "modeset_json" in attrs and "duplicate_of" not in attrs:
             ms = space.canonical(ModeSet.from_dict(attrs["modeset_json"]))
             records.setdefault(ms.label(), Record(ms, None, math.inf, math.inf))
-        elif t.state in (states.RUNNING, states.WAITING):
-            ms = space.from_params(t.params)
-            if ms is not None:
-                pending.append(space.canonical(ms).label())
-            elif t.state == states.RUNNING and before is not None and t.number < before:
-                unknown += 1
-    return records, pending, unknown
+    return records
 
 
 class FieldwiseSampler(optuna.samplers.BaseSampler):
@@ -335,7 +327,7 @@ class FieldwiseSampler(optuna.samplers.BaseSampler):
         start = trial.number - trial.number % ROUND
         while not finished_before(study, start):
             time.sleep(POLL_S)
-        records, _, _ = history(study, self.space, below=start)
+        records = history(study, self.space, below=start)
         pending = []
         for _ in range(trial.number - start + 1):
             modeset = self.strategy.propose(records, pending)
