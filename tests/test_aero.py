@@ -333,6 +333,56 @@ def test_vectorised_solver_equals_scalar_reference(deck):
     assert np.all(res.converged)
 
 
+def warm_solve(solver, buffers, guess, r, vn, vt, skew, psi):
+    """The compiled loop's call (`effects.compiled._aero`): `solve_elements` with per-element guesses."""
+    from modesel.aero.bem import solve_elements
+    grid, value, slope = solver.polars.arrays
+    np.copyto(buffers.c_tip, 0.5 * 3 * (solver.tip_radius - r) / r)
+    np.copyto(buffers.c_hub, 0.5 * 3 * (r - solver.hub_radius) / solver.hub_radius)
+    return solve_elements(r, vn, vt, buffers.theta, buffers.chord, buffers.offset, skew, psi,
+                          r / solver.tip_radius, buffers.c_tip, buffers.c_hub, grid, value, slope,
+                          *solver._constants, buffers.out, guess)
+
+
+def test_warm_started_roots_equal_cold_solve(deck):
+    """The compiled integration loop starts each element's root solve at its
+    previous root (`bem._solve_phi` guess): over a sequence of nearby states
+    (as successive right-hand sides) the loads equal the cold solve (Ning's
+    brackets) to the root tolerance, with fewer root-solver iterations; a guess that no
+    longer brackets the root (a jump in state) falls back to the cold solve."""
+    rng = np.random.default_rng(11)
+    n = 120
+    span, r, vn, vt, pitch, skew, psi = random_elements(rng, n)
+    solver = nrel_solver(deck, span)
+    buffers = solver.allocate((n,))
+    np.add(pitch, buffers.twist, out=buffers.theta)
+    guess = np.full(n, np.nan)
+    warm_iterations, cold_iterations = [], []
+    for step in range(12):
+        if step == 6:                                # a jump: most guesses no longer bracket
+            vn = vn * 1.5
+        else:
+            vn = vn * (1.0 + 1e-3 * rng.normal(size=n))
+            vt = vt * (1.0 + 1e-3 * rng.normal(size=n))
+        cold = solver.solve(r, vn, vt, pitch, skew, psi)
+        cold_out = np.array([cold.a, cold.a_prime, cold.phi, cold.f_n, cold.f_t, cold.m])
+        it = warm_solve(solver, buffers, guess, r, vn, vt, skew, psi)
+        warm_out = buffers.out[[0, 1, 2, 9, 10, 11]]
+        scale = np.abs(cold_out).max(axis=1, keepdims=True)
+        # both stop within the root tolerance (1e-10 rad); the loads change by
+        # at most about 10 times that per rad of inflow angle
+        assert np.all(np.abs(warm_out - cold_out) <= 1e-9 * scale), (step, (np.abs(warm_out - cold_out) / scale).max(axis=1))
+        assert np.array_equal(buffers.out[12] > 0.5, cold.converged)
+        assert np.isfinite(guess).sum() >= 0.9 * n            # the roots kept for the next call
+        if step not in (0, 6):
+            warm_iterations.append(it)
+            cold_iterations.append(cold.iterations)
+    assert np.median(warm_iterations) < min(cold_iterations)     # worst element per call (a fallback: cold)
+    before = buffers.out.copy()                               # the same state again: its own roots
+    assert warm_solve(solver, buffers, guess, r, vn, vt, skew, psi) <= 3
+    assert np.allclose(buffers.out, before, rtol=1e-10, atol=1e-12)
+
+
 def test_fallback_without_induction_is_quasi_steady(deck):
     """Parked rotor (V_t = 0): no induction; loads from the raw airfoil table."""
     span = np.array([20.0, 40.0])

@@ -19,7 +19,7 @@
 Method choice (`choose_method`, "auto"): the scene is linearised at its
 initial state; with stiffness ratio r = omega_max / omega_min of the
 non-zero natural frequencies and N = omega_max * tmax / (2 pi) cycles of the
-fastest mode, an explicit Runge-Kutta method is used when r < 200
+fastest mode, an explicit Runge-Kutta method is used when r < STIFF_RATIO = 80
 ("compiled-DOP853" when the right-hand side runs compiled, else "DOP853"),
 else the implicit Radau IIA method, whose step is not limited by the fastest
 mode ("compiled-Radau" when the right-hand side runs compiled, else scipy's
@@ -52,8 +52,17 @@ COMPILED_DOP853 = "compiled-DOP853"
 COMPILED_RADAU = "compiled-Radau"
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 METHODS = (COMPILED_DOP853, COMPILED_RADAU) + SCIPY_METHODS
-#: stiffness ratio omega_max / omega_min from which "auto" integrates implicitly
-STIFF_RATIO = 200.0
+#: stiffness ratio omega_max / omega_min from which "auto" integrates implicitly:
+#: where the two compiled methods cost the same. Measured (10 s each, the
+#: scene's tolerances for both methods, idle 2-core machine; wall of the whole
+#: `simulate`, DOP853 / Radau): NREL 5-MW at 11.4 m/s with BEM, ratio 12 (1 mode
+#: per field) 0.31 / 0.37 s, 37 (cosine:2) 0.53 / 0.62 s, 51 (clamped:2) 0.69 /
+#: 0.66 s, 57 (fem:2) 1.13 / 1.12 s, 69 (cosine:3) 0.97 / 0.96 s, 93 (clamped:3)
+#: 1.20 / 0.98 s, 111 (fem:3) 2.23 / 1.39 s, 166 (fem:4) 3.31 / 1.69 s; parked
+#: turbine fem:3, ratio 53, 1.55 / 1.70 s; steady_08, ratio 12, 0.44 / 0.63 s.
+#: (It was 200, which left the 29- and 38-DOF turbines on the explicit method
+#: at 1.6-2 times the cost.)
+STIFF_RATIO = 80.0
 IMPLICIT_METHODS = (COMPILED_RADAU, "Radau", "BDF")
 #: default (rtol, atol [m, rad, m/s, rad/s]) where the scene sets none.
 #: Explicit: 1e-8, 1e-10. Implicit: 1e-6, 1e-6: Radau's step control keeps

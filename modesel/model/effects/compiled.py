@@ -132,6 +132,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     out = state[o:o + 13 * B * M].reshape((13, B * M))
     o += 13 * B * M
     forces = state[o:o + B * N * 6].reshape((B, N, 6))
+    o += B * N * 6
+    guess = state[o:o + B * M]
     A = floats[o_ref:o_ref + 9 * M].reshape((M, 3, 3))
     so = o_slopes
     for b in range(B):
@@ -164,7 +166,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
-                   c[4], c[5], flags[6], out)
+                   c[4], c[5], flags[6], out, guess)
     T = floats[o_T:o_T + N * M].reshape((N, M))
     fn = out[9].reshape((B, M))
     ft = out[10].reshape((B, M))
