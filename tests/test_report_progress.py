@@ -49,3 +49,31 @@ def test_simulation_line_counts_from_the_integration_and_is_erased():
     assert "simulated 5 of 20 s, 0.5x real time, ETA 30 s" in stream.getvalue()
     line.close()
     assert stream.getvalue().endswith("\r\x1b[K")
+
+
+def test_compile_line_names_what_numba_compiles_and_how_long_it_took():
+    """A cache miss (a function numba has not compiled) draws the compile line
+    and ends with the total; a run that compiles nothing prints nothing."""
+    from numba import njit
+
+    from modesel.study.search.progress import CompileProgress
+
+    stream = io.StringIO()
+    with CompileProgress(stream=stream, enabled=True):
+        pass
+    assert stream.getvalue() == ""
+
+    def brand_new(x):
+        return 2.0 * x + 1.0
+
+    stream = io.StringIO()
+    with CompileProgress(stream=stream, enabled=True):
+        assert njit(brand_new)(1.0) == 3.0
+    text = stream.getvalue()
+    assert "compiling the engine (first run only): 1 function, 0 s [now: brand_new]" in text
+    assert text.endswith("\x1b[K\n") and "\rmodesel: engine compiled in " in text
+    assert "(1 function); later runs load it from numba's cache" in text
+    stream = io.StringIO()
+    with CompileProgress(stream=stream, enabled=False):
+        njit(lambda x: x - 1.0)(1.0)
+    assert stream.getvalue() == ""

@@ -30,12 +30,12 @@ def run(args) -> int:
     from modesel.files import unit_csv_text
     from modesel.model.effects import effects_in_scene
     from modesel.simulation.api import load_scene, simulate
-    from modesel.study.search.progress import SimulationProgress, compile_notice, speed_text
+    from modesel.study.search.progress import CompileProgress, SimulationProgress, speed_text
     scene = load_scene(args.scene)
-    compile_notice()
     line = SimulationProgress(f"{scene.name}: ")
     try:
-        result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line)
+        with CompileProgress():
+            result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line)
     finally:
         line.close()
     outputs = result.outputs

@@ -12,6 +12,9 @@ while the engine compiles on first use.
   `after_s` seconds (short runs print nothing).
 - `compile_notice`: "compiling the engine (first run only, ~1-2 min)..." on a terminal when
   the numba cache of the engine's kernel holds no index file yet.
+- `CompileProgress`: while numba compiles (cache misses only), one line on a
+  terminal with the functions compiled so far, the one being compiled and
+  the elapsed time; then how long it took.
 """
 from __future__ import annotations
 
@@ -73,6 +76,96 @@ def compile_notice(stream=None, quiet: bool = False) -> bool:
         stream = sys.stderr
     print(COMPILE_MESSAGE, file=stream, flush=True)
     return True
+
+
+class CompileProgress:
+    """Context manager around code that may compile the engine (the first run
+    after install or after a source change). On a terminal (stderr) and not
+    `quiet`, from numba's first compilation on (numba's "numba:compile" event,
+    raised on cache misses only, so a warm run prints nothing):
+
+        modesel: compiling the engine (first run only): 12 functions, 37 s [now: _aero]
+
+    redrawn at every compiled function and once per second, then
+    "modesel: engine compiled in 66 s (12 functions); later runs load it from numba's cache"."""
+
+    def __init__(self, stream=None, quiet: bool = False, enabled: bool | None = None):
+        self.stream = stream or sys.stderr
+        self.enabled = (self.stream.isatty() if enabled is None else enabled) and not quiet
+        self.count = 0
+        self.current = ""
+        self.start = None
+        self._depth = 0
+        self._listener = None
+        self._stop = None
+
+    def line(self, elapsed: float) -> str:
+        now = f" [now: {self.current}]" if self.current else ""
+        return (f"modesel: compiling the engine (first run only): {_functions(self.count)}, "
+                f"{_duration(elapsed)}{now}")
+
+    def _draw(self):
+        with self._lock:
+            if self.start is not None:
+                print("\r" + self.line(time.perf_counter() - self.start) + "\x1b[K", end="", file=self.stream,
+                      flush=True)
+
+    def _started(self, name: str):
+        if self.start is None:
+            import threading
+            self.start = time.perf_counter()
+            self._stop = threading.Event()
+            threading.Thread(target=self._tick, daemon=True).start()
+        if self._depth == 0:
+            self.current = name
+        self._depth += 1
+        self.count += 1
+        self._draw()
+
+    def _ended(self):
+        self._depth = max(0, self._depth - 1)
+        if self._depth == 0:
+            self.current = ""
+
+    def _tick(self):
+        while not self._stop.wait(REFRESH_S):
+            self._draw()
+
+    def __enter__(self):
+        import threading
+        self._lock = threading.Lock()
+        if self.enabled:
+            from numba.core import event
+
+            progress = self
+
+            class Listener(event.Listener):
+                def on_start(self, ev):
+                    progress._started(ev.data["dispatcher"].py_func.__name__)
+
+                def on_end(self, ev):
+                    progress._ended()
+
+            self._listener = Listener()
+            event.register("numba:compile", self._listener)
+        return self
+
+    def __exit__(self, *exc):
+        if self._listener is not None:
+            from numba.core import event
+            event.unregister("numba:compile", self._listener)
+        if self._stop is not None:
+            self._stop.set()
+            with self._lock:
+                took = _duration(time.perf_counter() - self.start)
+                print(f"\rmodesel: engine compiled in {took} ({_functions(self.count)}); later runs load it "
+                      "from numba's cache\x1b[K", file=self.stream, flush=True)
+            self.start = None
+        return False
+
+
+def _functions(count: int) -> str:
+    return f"{count} function" + ("" if count == 1 else "s")
 
 
 def _duration(seconds: float) -> str:

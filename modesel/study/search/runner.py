@@ -34,7 +34,7 @@ from modesel.study.search.claims import abandoned, distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
-from modesel.study.search.progress import Progress, compile_notice, counts
+from modesel.study.search.progress import CompileProgress, Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
 from modesel.study.search.owners import OWNER, process_owner
 from modesel.study.search.storage import (check_against_results, default_storage, note_lost_trials, open_storage,
@@ -269,8 +269,8 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
         # starts with the compiled engine, the decks and the references loaded
         # (a spawned worker paid seconds of imports and numba cache loading);
         # forked before the progress bar starts its thread
-        compile_notice(quiet=progress is False)
-        objective.warm_up()
+        with CompileProgress(quiet=progress is False):
+            objective.warm_up()
         seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
         workers = _fork_workers(objective, storage, study, seeds, shares, timeout, callbacks)
     bar = Progress(n_trials, study.name, progress)
