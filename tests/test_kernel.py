@@ -164,6 +164,20 @@ def test_compiled_rhs_matches_evaluate(turbine):
         assert_equal_rel(qdd, np.linalg.solve(Mr, Fr), "qdd")
 
 
+def test_dop853_tableau_is_scipys():
+    """compiled-DOP853's tableau (numbers in `dop853_tableau`, so a compiled run
+    does not import scipy.integrate) equals scipy's DOP853 class attributes bit for bit."""
+    from scipy.integrate import DOP853
+
+    from modesel.multibody.dop853_tableau import A, B, C, D, E3, E5
+    n = DOP853.n_stages
+    assert np.array_equal(A[:n, :n], DOP853.A) and np.array_equal(A[n, :n], DOP853.B)
+    assert np.array_equal(A[n + 1:], DOP853.A_EXTRA) and not A[:n + 1, n:].any()
+    assert np.array_equal(C, np.concatenate([DOP853.C, [1.0], DOP853.C_EXTRA]))
+    for ours, theirs in ((B, DOP853.B), (E3, DOP853.E3), (E5, DOP853.E5), (D, DOP853.D)):
+        assert ours.shape == theirs.shape and np.array_equal(ours, theirs)
+
+
 def test_compiled_dop853_equals_solve_ivp(turbine):
     """The compiled loop reproduces scipy's DOP853 (same steps, same outputs)."""
     system = build_turbine(turbine, ModeSet({"tower_fa": FieldModes("elastodyn", 1),

@@ -42,10 +42,9 @@ import functools
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import DOP853, solve_ivp
 
 from modesel.errors import ModeselError, SimulationDiverged
-from modesel.multibody import kernel
+from modesel.multibody import dop853_tableau, kernel
 from modesel.multibody.compiled import CompiledRHS
 
 COMPILED_DOP853 = "compiled-DOP853"
@@ -79,19 +78,10 @@ def default_tolerances(method: str) -> tuple[float, float]:
     return DEFAULT_TOLERANCES["implicit" if method in IMPLICIT_METHODS else "explicit"]
 
 
-def _dop853_table():
-    """Butcher tableau of scipy's DOP853 with its extra dense-output stages
-    (A 16x16, B, C 16, E3, E5, D), from the public class attributes."""
-    n = DOP853.n_stages
-    A = np.zeros((n + 1 + len(DOP853.A_EXTRA), n + 1 + len(DOP853.A_EXTRA)))
-    A[:n, :n] = DOP853.A
-    A[n, :n] = DOP853.B                         # stage n: the first stage of the next step (FSAL)
-    A[n + 1:, :] = DOP853.A_EXTRA
-    C = np.concatenate([DOP853.C, [1.0], DOP853.C_EXTRA])
-    return tuple(np.ascontiguousarray(a, float) for a in (A, DOP853.B, C, DOP853.E3, DOP853.E5, DOP853.D))
-
-
-_DOP853_TABLE = _dop853_table()
+#: the Butcher tableau of compiled-DOP853: scipy's DOP853 with its extra
+#: dense-output stages (A 16x16, B, C 16, E3, E5, D), held as numbers in
+#: `dop853_tableau` (equal to scipy's class attributes, tests/test_kernel.py)
+_DOP853_TABLE = dop853_tableau.TABLE
 _REASONS = {kernel.NON_FINITE_STATE: "non-finite state",
             kernel.SINGULAR: "singular mass matrix",
             kernel.NON_FINITE_ACC: "non-finite acceleration"}
@@ -251,6 +241,7 @@ def _integrate_scipy(rhs_M_F, x0, t_eval, tmax, method, rtol, atol, max_step, qb
             raise _Diverged("non-finite acceleration", t)
         return np.concatenate([qd, qdd])
 
+    from scipy.integrate import solve_ivp          # here: compiled runs do not import scipy.integrate
     try:
         sol = solve_ivp(f, (0.0, tmax), x0, method=method, t_eval=t_eval, rtol=rtol, atol=atol,
                         max_step=max_step)

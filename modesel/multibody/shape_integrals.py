@@ -45,7 +45,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-from scipy.interpolate import BPoly
 
 from modesel.candidates.base import ShapeSet
 from modesel.errors import ModeselError
@@ -100,6 +99,7 @@ def evaluate_shapes(shapes, x) -> ShapeSet:
     if x.min() < xs.min() - 1e-12 or x.max() > xs.max() + 1e-12:
         raise ModeselError(f"shapes sampled on [{xs.min():g}, {xs.max():g}] cannot be evaluated on "
                            f"[{x.min():g}, {x.max():g}]", field="shapes")
+    from scipy.interpolate import BPoly           # here: most builds sample the shapes where needed
     rows = []
     for k in range(shapes.count):
         poly = BPoly.from_derivatives(xs, np.stack([shapes.phi[k], shapes.dphi[k], shapes.ddphi[k]], axis=1))
