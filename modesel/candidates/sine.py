@@ -19,13 +19,13 @@ the tip-normalised shapes grow large.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
 
 from modesel.candidates.base import TORSION_FIELDS, Family, Parameter, register
 
 
 def tip_inertia_shaft_roots(count: int, rho: float) -> np.ndarray:
     """First `count` roots of cos g - rho g sin g = 0 (i.e. g tan g = 1/rho)."""
+    from scipy.optimize import brentq        # here: every build loads the families (module doc of base)
     f = lambda g: np.cos(g) - rho * g * np.sin(g)  # noqa: E731
     return np.array([brentq(f, (k - 1) * np.pi, (k - 0.5) * np.pi, xtol=1e-15, rtol=1e-15)
                      for k in range(1, count + 1)])
