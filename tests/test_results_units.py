@@ -139,3 +139,27 @@ def test_progress_bar_and_simulation_line(capsys):
     assert speed_text(20.0, 87.0) == "0.23x real time"
     line = SimulationProgress("scene: ", enabled=True).line(5.0, 20.0, 10.0)
     assert line == "scene: simulated 5 of 20 s, 0.5x real time, ETA 30 s"
+
+
+def test_simulate_leaves_out_the_channels_a_search_does_not_compare():
+    """`simulate(..., channels=...)` (what a search trial asks for): the rotor
+    aerodynamics, generator and reaction-load channels are left out unless
+    named, the rest is the full run's, value for value; each effect's
+    `CHANNELS` names what its `channels` returns."""
+    from modesel.simulation.api import build, load_scene, simulate
+    path = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "turbine_wind_11p4.toml"
+    scene = load_scene(str(path))
+    full = simulate(scene, tmax=1.0).outputs
+    some = simulate(load_scene(str(path)), tmax=1.0, channels=["TTDspFA", "OoPDefl1", "GenPwr"]).outputs
+    assert {"RtAeroFxh", "RtAeroCp", "RootMxc1"} <= set(full.columns)
+    left_out = set(full.columns) - set(some.columns)
+    assert {"RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp", "RootMxc1", "TwrBsMyt", "RotThrust"} <= left_out
+    assert "GenPwr" in some.columns and "GenTq" in some.columns      # the generator's channels come together
+    for c in some.columns:
+        assert np.array_equal(some[c].to_numpy(), full[c].to_numpy()), c
+    built = build(load_scene(str(path)))
+    for e in built.acting:
+        if e.CHANNELS:
+            q_all, qd_all, _ = built.eq.full_state(built.q0, built.qd0 + 0.1, 0.0)
+            e(built, 0.0, q_all, qd_all, np.zeros(built.eq.n_all), {})
+            assert set(e.channels(built)) == set(e.CHANNELS), e.name

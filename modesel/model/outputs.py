@@ -73,10 +73,13 @@ def channel_unit(name: str) -> str | None:
     return CHANNEL_UNITS.get(f"{per_blade.group(1)}<b>") if per_blade else None
 
 
-def channels(built, integ):
+def channels(built, integ, wanted=None):
     """Channels of `built` (simulation.assembly.Built) along `integ`
     (integrate.Integration): a pandas DataFrame (pandas imported here, not by
-    the modules that only need `channel_unit`)."""
+    the modules that only need `channel_unit`). wanted: None (all), or the
+    names needed: the effects' channels and reaction loads, which cost an
+    evaluation per output time, are then left out unless named (the
+    coordinates, speeds, deflections and shaft torque are always there)."""
     import pandas as pd
     model = built.model
     names = list(model.system.free)
@@ -122,7 +125,7 @@ def channels(built, integ):
     if "Yaw" in idx or "Yaw" in model.system.fixed:
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
     data.update(shaft_torque(built, coord, data["RotSpeed"]))
-    data.update(load_channels(built, integ))
+    data.update(load_channels(built, integ, wanted))
     return pd.DataFrame(data)
 
 
@@ -171,14 +174,16 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
             "HSShftTq": torque / built.model.turbine.gearbox_ratio}
 
 
-def load_channels(built, integ) -> dict:
+def load_channels(built, integ, wanted=None) -> dict:
     """Effect channels and reaction loads at every output time (empty when
-    the scene has neither). The reaction loads come from one compiled call
-    over all output times, with the effects' loads inside the compiled loop
-    (`Built.rhs`); the effect channels from the effects that have channels,
-    evaluated in Python at each output time (they see the same state)."""
-    with_channels = [e for e in built.acting if type(e).channels is not Effect.channels]
-    reactions = built.model.reactions
+    the scene has neither), those in `wanted` unless it is None. The reaction
+    loads come from one compiled call over all output times, with the
+    effects' loads inside the compiled loop (`Built.rhs`); the effect
+    channels from the effects that have channels, evaluated in Python at
+    each output time (they see the same state)."""
+    with_channels = [e for e in built.acting if type(e).channels is not Effect.channels
+                     and (wanted is None or set(e.CHANNELS) & set(wanted))]
+    reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
     if not with_channels and not reactions:
         return {}
     out = {}

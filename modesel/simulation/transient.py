@@ -45,7 +45,7 @@ def divergence_bounds(built: Built) -> np.ndarray:
 
 
 def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None = None,
-             dt: float | None = None, progress=None) -> SimulationResult:
+             dt: float | None = None, progress=None, channels=None) -> SimulationResult:
     """Integrate `scene` (with `modeset` overriding its shapes) over tmax [s]
     with outputs every dt [s] (default: the scene's) and return outputs.
     The integrator is chosen by the stiffness ratio of the scene linearised
@@ -53,12 +53,15 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     tolerances are the scene's, else the method's defaults
     (`integrate.default_tolerances`).
     progress: optional progress(t, tmax) hook of the integrator.
+    channels: None (every output channel), or the names needed (a search's
+    compared channels): effect channels and reaction loads not named are
+    left out (`outputs.channels`; about 0.3 ms per output time with BEM).
     Runs with one BLAS thread (`integrate.single_thread_blas`)."""
     with single_thread_blas():
-        return _simulate(scene, modeset, tmax, dt, progress)
+        return _simulate(scene, modeset, tmax, dt, progress, channels)
 
 
-def _simulate(scene, modeset, tmax, dt, progress) -> SimulationResult:
+def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResult:
     tmax = scene.tmax if tmax is None else float(tmax)
     dt = scene.dt if dt is None else float(dt)
     if not (tmax > 0 and dt > 0 and np.isfinite(tmax) and np.isfinite(dt)):
@@ -99,7 +102,7 @@ def _simulate(scene, modeset, tmax, dt, progress) -> SimulationResult:
         reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
-    df = channels(built, integ)
+    df = channels(built, integ, None if wanted is None else set(wanted))
     df.attrs["units"] = {c: u for c in df.columns if (u := channel_unit(c)) is not None}
     return SimulationResult(df, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs)
 

@@ -127,6 +127,7 @@ def wind_of(effect, built):
 class BladeAerodynamics(Effect):
     name = "aero"
     loads = True
+    CHANNELS = ("RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp")
     OPTIONS = {
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),

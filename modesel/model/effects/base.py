@@ -73,6 +73,7 @@ class Effect:
     name = ""
     OPTIONS: dict = {}
     loads = False             # __call__ acts at every right-hand side
+    CHANNELS: tuple = ()      # the names `channels` returns (OpenFAST's)
     default_on = False        # switched on when the scene does not mention it
 
     def __init__(self, scene, options: dict):
@@ -133,7 +134,8 @@ class Effect:
         return []
 
     def channels(self, built) -> dict:
-        """Output channels from the last `__call__` (OpenFAST names/units)."""
+        """Output channels from the last `__call__` (OpenFAST names/units; the
+        names are the class's `CHANNELS`)."""
         return {}
 
     def error(self, message, key=None) -> ModeselError:

@@ -88,6 +88,7 @@ def variable_speed_torque(w: float) -> float:
 
 class Generator(Effect):
     name = "generator"
+    CHANNELS = ("GenTq", "GenPwr")
     OPTIONS = {
         "mode": Option("choice", "variable_speed", "torque law",
                        choices=("variable_speed", "constant", "locked", "simple_variable_speed", "induction")),
