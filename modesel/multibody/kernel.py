@@ -812,7 +812,7 @@ def _rms(x):
     return np.sqrt(s / x.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
     """scipy's select_initial_step for an error estimator of `order` from
     (t, y), f = f(t, y), with one right-hand side: (status, index, step), or
@@ -846,7 +846,7 @@ def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork
     return OK, -1, min(100 * h0, h1, tmax, max_step)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
     K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
