@@ -245,7 +245,7 @@ def _rotate_tensor(R, body_frame, out):
             out[i, j] = s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     """Generalised mass Mb and force fy of a rigid body in y = [v; w] of its
     origin (inertial axes): eq. 6-7 with J_vG = J_v - [p~] J_w expanded."""
@@ -293,7 +293,7 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
         _add_node_forces(b, fnodes, data, work, fy)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _add_node_forces(b, fnodes, data, work, fy):
     """fy += [sum f_k; sum (p_k x f_k + m_k)] for the nodes of a body without
     elastic DOFs (node forces f_k and moments m_k, inertial: fnodes[k, 0:3],
@@ -507,7 +507,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
         fy[3 + i] = R[i, 0] * fr[0] + R[i, 1] * fr[1] + R[i, 2] * fr[2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _project(b, ne, data, work, Mb, fy, M, F):
     """M += Jb^T Mb Jb and F += Jb^T fy with Jb = [Jv; Jw; E_e] (eq. 7, 18-19),
     on the body's Jacobian columns and its own elastic coordinates."""
