@@ -277,7 +277,7 @@ def loss_constants(z, z_tip, z_hub, num_blades):
     return num_blades * (z_tip - z) / (2.0 * z), num_blades * (z - z_hub) / (2.0 * z_hub)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _residual(phi, e, offset, flags, grid, value, slope):
     """Ning's residual R(phi) (Ning 2014 eq. 22 with his propeller-brake branch)."""
     s, c = np.sin(phi), np.cos(phi)
