@@ -379,8 +379,9 @@ def test_warm_started_roots_equal_cold_solve(deck):
             cold_iterations.append(cold.iterations)
     assert np.median(warm_iterations) < min(cold_iterations)     # worst element per call (a fallback: cold)
     before = buffers.out.copy()                               # the same state again: its own roots
-    assert warm_solve(solver, buffers, guess, r, vn, vt, skew, psi) <= 3
-    assert np.allclose(buffers.out, before, rtol=1e-10, atol=1e-12)
+    assert warm_solve(solver, buffers, guess, r, vn, vt, skew, psi) < min(cold_iterations)
+    scale = np.abs(before).max(axis=1, keepdims=True)
+    assert np.all(np.abs(buffers.out - before) <= 1e-9 * scale)
 
 
 def test_fallback_without_induction_is_quasi_steady(deck):

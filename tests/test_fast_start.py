@@ -1,11 +1,15 @@
 """Fast start of `modesel simulate` (issue 12): the simulate path imports no
-search, plotting or symbolic package, and parsed decks are cached."""
+search, plotting or symbolic package, parsed decks are cached, and the first
+run compiles the loads in a child process that never outlives the command."""
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -81,3 +85,84 @@ def test_deck_cache_keeps_at_most_max_entries(tmp_path, monkeypatch):
         assert deck_cache.cached(lambda p: reads.append(p) or Path(p).read_text(), deck) == f"value {k}\n"
     assert len(reads) == 6
     assert 2 <= len(list((tmp_path / "cache" / "decks").glob("*.pickle"))) <= 4
+
+
+STEADY_08 = ROOT / "studies/data/openfast/steady_08/steady_08.fst"
+
+
+def _cold_simulate(tmp_path, out):
+    """`modesel simulate` of steady_08 (BEM loads) with an empty numba cache, in a subprocess."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+               NUMBA_CACHE_DIR=str(tmp_path / "numba"), MODESEL_CACHE_DIR=str(tmp_path / "cache"))
+    return subprocess.Popen([sys.executable, "-m", "modesel", "simulate", str(STEADY_08), "--tmax", "0.2",
+                             "--out", str(out)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _children(pid: int) -> list:
+    """(pid, command line) of the live children of `pid` (Linux /proc)."""
+    out = []
+    for status in Path("/proc").glob("[0-9]*/status"):
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
+            if int(fields.get("PPid", "0")) == pid and not fields.get("State", "").startswith("Z"):
+                cmd = (status.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+                out.append((int(status.parent.name), cmd))
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def _alive(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie does not)."""
+    try:
+        state = Path(f"/proc/{pid}/status").read_text().split("State:\t", 1)[1]
+    except (OSError, IndexError):
+        return False
+    return not state.startswith("Z")
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="needs Linux /proc to see the child")
+def test_first_run_child_compiling_the_loads_never_outlives_the_command(tmp_path):
+    """First run of a scene with BEM loads (empty numba cache): a child process
+    compiles the effects' loads while the command compiles the kernel
+    (`simulation.first_run`); Ctrl-C meanwhile stops the command with its
+    one line and exit code 130, and the child is gone with it."""
+    proc = _cold_simulate(tmp_path, tmp_path / "out.csv")
+    deadline = time.monotonic() + 120
+    child = []
+    while not child:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no child compiling the loads"
+        child = [pid for pid, cmd in _children(proc.pid) if "modesel.model.effects.compiled" in cmd]
+        time.sleep(0.1)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "modesel: interrupted (SIGINT)" and "Traceback" not in err
+    assert not _alive(child[0])
+
+
+@pytest.mark.slow
+def test_first_run_compiled_in_parallel_gives_the_warm_run(tmp_path):
+    """The cold run (loads compiled by the child, the kernel against a stand-in
+    of the loads' type) writes the child's cache and the outputs of a warm run,
+    to the integration tolerance: freshly compiled and cache-loaded code round
+    differently in the last digits (fastmath reassociation in the node sums),
+    which moves the adaptive steps (rtol 1e-5 of an OpenFAST case)."""
+    cold = tmp_path / "cold.csv"
+    proc = _cold_simulate(tmp_path, cold)
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err
+    assert (tmp_path / "numba").is_dir() and list((tmp_path / "numba").glob("**/compiled.effect_loads*.nbi"))
+    warm = tmp_path / "warm.csv"
+    proc = _cold_simulate(tmp_path, warm)
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err
+    from modesel.files import read_unit_csv
+    a, b = read_unit_csv(cold), read_unit_csv(warm)
+    assert list(a.columns) == list(b.columns) and len(a) == len(b) > 2
+    for c in a.columns:
+        x, y = a[c].to_numpy(float), b[c].to_numpy(float)
+        assert np.all(np.abs(x - y) <= 1e-3 * (np.ptp(y) + np.abs(y).max()) + 1e-9), c

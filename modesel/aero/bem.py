@@ -277,7 +277,7 @@ def loss_constants(z, z_tip, z_hub, num_blades):
     return num_blades * (z_tip - z) / (2.0 * z), num_blades * (z - z_hub) / (2.0 * z_hub)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _residual(phi, e, offset, flags, grid, value, slope):
     """Ning's residual R(phi) (Ning 2014 eq. 22 with his propeller-brake branch)."""
     s, c = np.sin(phi), np.cos(phi)
@@ -307,7 +307,10 @@ def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter, guess):
 
     guess [rad]: a root of this element at a nearby state (the previous
     right-hand side), or NaN. A guess in Ning's first bracket (0, pi/2] is
-    tried first as the bracket guess -/+ WARM_BRACKET (clipped to it): where
+    tried first as the bracket c -/+ WARM_BRACKET (clipped to it), c the
+    multiple of WARM_BRACKET nearest the guess (so the guess, within half a
+    bracket of c, lies well inside, and the root's last digits, which depend
+    on the path of the solve that found it, do not carry over): where
     R changes sign there, a root of the first bracket lies in it, the one the
     cold solve finds wherever R has a single root in (0, pi/2] (with several,
     the warm solve stays on the previous right-hand side's branch), in about
@@ -317,7 +320,11 @@ def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter, guess):
     eps = 1e-6
     lo, hi = eps, 0.5 * np.pi
     if guess > eps and guess <= hi:             # NaN compares False
-        w_lo, w_hi = max(guess - WARM_BRACKET, eps), min(guess + WARM_BRACKET, hi)
+        # the bracket about the lattice point (multiples of WARM_BRACKET) nearest
+        # the guess: the result then depends on the guess only through that
+        # point, not on its last digits (which the path of the previous solve sets)
+        centre = np.floor(guess / WARM_BRACKET + 0.5) * WARM_BRACKET
+        w_lo, w_hi = max(centre - WARM_BRACKET, eps), min(centre + WARM_BRACKET, hi)
         f_lo = _residual(w_lo, e, offset, flags, grid, value, slope)
         f_hi = _residual(w_hi, e, offset, flags, grid, value, slope)
         if f_lo * f_hi <= 0.0:

@@ -11,6 +11,7 @@ from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
 from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
+from modesel.simulation import first_run
 from modesel.simulation.assembly import Built, build
 from modesel.simulation.results import SimulationResult
 from modesel.simulation.scene import Scene, check_time_grid
@@ -70,6 +71,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     rows = check_time_grid(tmax, dt, file=scene.path)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
+    if first_run.is_cold(first_run.LOADS_MODULE):    # compile the loads and the kernel at once
+        first_run.compile_in_parallel(built)
     requested = scene.solver.get("method", "auto")
     names = list(built.model.system.free)
     n = len(names)

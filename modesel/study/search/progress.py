@@ -18,11 +18,10 @@ while the engine compiles on first use.
 """
 from __future__ import annotations
 
-import importlib.util
-import os
 import sys
 import time
-from pathlib import Path
+
+from modesel.simulation.first_run import index_files
 
 #: wall seconds between redraws of the search bar while a trial runs
 REFRESH_S = 1.0
@@ -33,33 +32,11 @@ COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
 COMPILED_MODULES = ("modesel.multibody.kernel",)
 
 
-def _index_files(module: str) -> list:
-    """numba cache index files (*.nbi) of `module` in the places numba looks:
-    NUMBA_CACHE_DIR, __pycache__ beside the source, the user-wide cache."""
-    spec = importlib.util.find_spec(module)
-    if spec is None or not spec.origin:
-        return []
-    source = Path(spec.origin)
-    stem = source.stem
-    if os.environ.get("NUMBA_CACHE_DIR"):      # numba then uses this folder only
-        root = Path(os.environ["NUMBA_CACHE_DIR"])
-        places = [root, *root.glob("**/" + source.parent.name)]
-    else:
-        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba"]
-    found = []
-    for place in places:
-        if place.is_dir():
-            found += list(place.glob(f"{stem}.*.nbi")) or list(place.glob(f"**/{stem}.*.nbi"))
-        if found:
-            break
-    return found
-
-
 def engine_is_cold() -> bool:
     """True when the engine's compiled kernel has no numba cache yet (the
     first simulation will compile it)."""
     try:
-        return not all(_index_files(m) for m in COMPILED_MODULES)
+        return not all(index_files(m) for m in COMPILED_MODULES)
     except OSError:
         return False
 

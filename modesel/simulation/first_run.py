@@ -1,0 +1,136 @@
+"""The first simulation after install (or after a source change), when numba
+compiles the engine into its on-disk cache.
+
+A scene with compiled loads (BEM aerodynamics, tower drag, generator) has two
+independent halves to compile: the effects' loads (`model.effects.compiled`:
+the cfunc `effect_loads` and the BEM, kinematics and load-distribution
+functions it calls) and the integration loop (`multibody.kernel`: the
+right-hand side, DOP853, the reaction loads), which needs only the *type* of
+the loads, a first-class function of `kernel.LOADS_SIG`. `compile_in_parallel`
+compiles the first in a child process while this process compiles the second
+against a stand-in of that type (`_no_loads`, which adds nothing); both land
+in numba's cache, from which the simulation then loads them. On the 2-core
+machine this takes the first run of `steady_08` from about 57 s to about 40 s
+of wall time (README, Benchmarks).
+
+`index_files` and `is_cold` tell whether a module's compiled functions are
+in numba's cache yet (`study.search.progress` uses them for its notice).
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: the module of the effects' compiled loads (compiled by the child)
+LOADS_MODULE = "modesel.model.effects.compiled"
+
+
+def index_files(module: str) -> list:
+    """numba cache index files (*.nbi) of `module` in the places numba looks:
+    NUMBA_CACHE_DIR, __pycache__ beside the source, the user-wide cache."""
+    spec = importlib.util.find_spec(module)
+    if spec is None or not spec.origin:
+        return []
+    source = Path(spec.origin)
+    stem = source.stem
+    if os.environ.get("NUMBA_CACHE_DIR"):      # numba then uses this folder only
+        root = Path(os.environ["NUMBA_CACHE_DIR"])
+        places = [root, *root.glob("**/" + source.parent.name)]
+    else:
+        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba"]
+    found = []
+    for place in places:
+        if place.is_dir():
+            found += list(place.glob(f"{stem}.*.nbi")) or list(place.glob(f"**/{stem}.*.nbi"))
+        if found:
+            break
+    return found
+
+
+def is_cold(module: str) -> bool:
+    """True when `module`'s compiled functions have no numba cache yet."""
+    try:
+        return not index_files(module)
+    except OSError:
+        return False
+
+
+def _die_with_parent():            # pragma: no cover (runs in the child before exec)
+    """Linux: the child gets SIGKILL when this process dies (PR_SET_PDEATHSIG)."""
+    try:
+        import ctypes
+        import signal
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+
+def compile_in_parallel(built) -> bool:
+    """Compile the effects' loads in a child process and the kernel here, at
+    once, when the loads have no numba cache yet (module doc). Returns True
+    when it ran. The child is waited for, and killed if this process is
+    interrupted, so no process outlives the call; if it fails, the simulation
+    compiles the loads itself, as without this step."""
+    acting = getattr(built, "acting", None)
+    if not acting or not all(hasattr(e, "compile_loads") for e in acting):
+        return False
+    if LOADS_MODULE in sys.modules or not is_cold(LOADS_MODULE):
+        return False
+    package_root = str(Path(__file__).resolve().parents[2])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
+                                                        if p))
+    child = subprocess.Popen([sys.executable, "-c", f"import {LOADS_MODULE}"], env=env,
+                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
+    try:
+        _compile_kernel(built)
+        child.wait()
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    return True
+
+
+def _compile_kernel(built) -> None:
+    """Compile (or load) the kernel's loops for a problem with loads, on
+    `built`'s equations with the stand-in loads: the right-hand side, DOP853
+    and the reaction loads, with the argument types of the simulation's own."""
+    from modesel.multibody.compiled import CompiledRHS
+    from modesel.multibody.dop853_tableau import TABLE
+    stand_in = (_no_loads(), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
+    rhs = CompiledRHS(built.eq, built.linear, loads=stand_in)
+    q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
+    rhs(0.0, q0, qd0)
+    if rhs.compilable:
+        n = len(q0)
+        x0 = np.concatenate([q0, qd0])
+        rhs.dop853(x0, np.array([0.0, 1e-4]), 1e-4, 1e-6, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf),
+                   TABLE)
+    rows = list(built.model.reactions.values())[:1]
+    if rows:
+        full = CompiledRHS(built.eq, built.linear, all_rows=True, loads=stand_in)
+        full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], rows)
+
+
+def _no_loads():
+    """A cfunc of `kernel.LOADS_SIG` that adds no load (its type is all the kernel needs)."""
+    from numba import cfunc
+
+    from modesel.multibody.kernel import LOADS_SIG
+
+    global _NO_LOADS
+    if _NO_LOADS is None:
+        @cfunc(LOADS_SIG)
+        def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
+            return 0
+        _NO_LOADS = no_loads
+    return _NO_LOADS
+
+
+_NO_LOADS = None
