@@ -75,7 +75,8 @@ def compile_in_parallel(built) -> bool:
     once, when the loads have no numba cache yet (module doc). Returns True
     when it ran. The child is waited for, and killed if this process is
     interrupted, so no process outlives the call; if it fails, the simulation
-    compiles the loads itself, as without this step."""
+    compiles the loads itself, as without this step. Cheap when there is
+    nothing to do (no compiled loads, or their module already imported)."""
     acting = getattr(built, "acting", None)
     if not acting or not all(hasattr(e, "compile_loads") for e in acting):
         return False

@@ -71,8 +71,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     rows = check_time_grid(tmax, dt, file=scene.path)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
-    if first_run.is_cold(first_run.LOADS_MODULE):    # compile the loads and the kernel at once
-        first_run.compile_in_parallel(built)
+    first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once
     requested = scene.solver.get("method", "auto")
     names = list(built.model.system.free)
     n = len(names)
