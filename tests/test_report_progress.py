@@ -53,7 +53,8 @@ def test_simulation_line_counts_from_the_integration_and_is_erased():
 
 def test_compile_line_names_what_numba_compiles_and_how_long_it_took():
     """A cache miss (a function numba has not compiled) draws the compile line
-    and ends with the total; a run that compiles nothing prints nothing."""
+    and ends with the total; a run that compiles nothing prints nothing; an
+    interrupted one erases the line (the command's one line follows)."""
     from numba import njit
 
     from modesel.study.search.progress import CompileProgress
@@ -73,6 +74,17 @@ def test_compile_line_names_what_numba_compiles_and_how_long_it_took():
     assert "compiling the engine (first run only): 1 function, 0 s [now: brand_new]" in text
     assert text.endswith("\x1b[K\n") and "\rmodesel: engine compiled in " in text
     assert "(1 function); later runs load it from numba's cache" in text
+    def also_new(x):
+        return x * x
+
+    stream = io.StringIO()
+    try:
+        with CompileProgress(stream=stream, enabled=True):
+            njit(also_new)(2.0)
+            raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        pass
+    assert stream.getvalue().endswith("\r\x1b[K") and "engine compiled" not in stream.getvalue()
     stream = io.StringIO()
     with CompileProgress(stream=stream, enabled=False):
         njit(lambda x: x - 1.0)(1.0)

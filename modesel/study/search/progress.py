@@ -127,16 +127,19 @@ class CompileProgress:
             event.register("numba:compile", self._listener)
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, *exc):
         if self._listener is not None:
             from numba.core import event
             event.unregister("numba:compile", self._listener)
         if self._stop is not None:
             self._stop.set()
             with self._lock:
-                took = _duration(time.perf_counter() - self.start)
-                print(f"\rmodesel: engine compiled in {took} ({_functions(self.count)}); later runs load it "
-                      "from numba's cache\x1b[K", file=self.stream, flush=True)
+                if exc_type is None:
+                    took = _duration(time.perf_counter() - self.start)
+                    print(f"\rmodesel: engine compiled in {took} ({_functions(self.count)}); later runs load it "
+                          "from numba's cache\x1b[K", file=self.stream, flush=True)
+                else:                  # an error or Ctrl-C: erase the line, the command's one line follows
+                    print("\r\x1b[K", end="", file=self.stream, flush=True)
             self.start = None
         return False
 
