@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, STEP_COLLAPSE,
-                                      free_system, initial_step, lu_factor, lu_solve_factored)
+                                      free_system, lu_factor, lu_solve_factored, start)
 
 S6 = 6 ** 0.5
 C = np.array([(4 - S6) / 10, (4 + S6) / 10, 1.0])
@@ -171,16 +171,11 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     y_old = x0.copy()
     ZE = np.empty(nx)
     err = np.empty(nx)
-    nfev = 1
     counts = np.zeros(2, np.int64)          # right-hand sides and Jacobians of `jacobian`
     n_lu = 0
     n_steps = 0
     t = 0.0
-    code, idx = free_system(t, y, f, True, bounds, prob, rwork, data, work)
-    if code != OK:
-        return code, t, nfev, 0, idx, 0, n_lu, n_steps
-    code, idx, h_abs = initial_step(t, y, f, tmax, max_step, rtol, atol, 3, bounds, prob, rwork, data, work)
-    nfev += 1
+    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, 3, bounds, prob, rwork, data, work)
     if code != OK:
         return code, h_abs, nfev, 0, idx, 0, n_lu, n_steps
     h_abs_old = -1.0            # -1: none (scipy None)

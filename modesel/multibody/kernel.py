@@ -847,6 +847,19 @@ def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork
 
 
 @njit(cache=True, inline="always")
+def start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
+    """The start of an integration from (0, y): f = f(0, y) and scipy's
+    initial step for an error estimator of `order` (`initial_step`):
+    (status, index, step, n_rhs), or (status, index, time of the failure,
+    n_rhs) when a right-hand side fails."""
+    code, idx = free_system(0.0, y, f, True, bounds, prob, rwork, data, work)
+    if code != OK:
+        return code, idx, 0.0, 1
+    code, idx, h_abs = initial_step(0.0, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
+    return code, idx, h_abs, 2
+
+
+@njit(cache=True, inline="always")
 def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
     K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
@@ -881,13 +894,8 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     Fd = np.empty((3 + D.shape[0], nx))
     err_exp = -1.0 / 8.0                     # error estimator order 7
     SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
-    nfev = 1
     t = 0.0
-    code, idx = free_system(t, y, f, True, bounds, prob, rwork, data, work)
-    if code != OK:
-        return code, t, nfev, 0, idx
-    code, idx, h_abs = initial_step(t, y, f, tmax, max_step, rtol, atol, 7, bounds, prob, rwork, data, work)
-    nfev += 1
+    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, 7, bounds, prob, rwork, data, work)
     if code != OK:
         return code, h_abs, nfev, 0, idx
     n_out = 0

@@ -18,6 +18,7 @@ in numba's cache yet (`study.search.progress` uses them for its notice).
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import subprocess
@@ -60,8 +61,12 @@ def is_cold(module: str) -> bool:
         return False
 
 
-def _die_with_parent():            # pragma: no cover (runs in the child before exec)
-    """Linux: the child gets SIGKILL when this process dies (PR_SET_PDEATHSIG)."""
+def die_with_parent_signal() -> None:
+    """Linux: this process gets SIGKILL when its parent dies (PR_SET_PDEATHSIG);
+    elsewhere nothing. Run in a child (here before exec; the search's workers,
+    `study.search.runner.die_with_parent`)."""
+    if not sys.platform.startswith("linux"):
+        return
     try:
         import ctypes
         import signal
@@ -87,7 +92,7 @@ def compile_in_parallel(built) -> bool:
                                                         if p))
     child = subprocess.Popen([sys.executable, "-c", f"import {LOADS_MODULE}"], env=env,
                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                             preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
+                             preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
     try:
         _compile_kernel(built)
         child.wait()
@@ -119,19 +124,14 @@ def _compile_kernel(built) -> None:
         full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], rows)
 
 
+@functools.cache
 def _no_loads():
     """A cfunc of `kernel.LOADS_SIG` that adds no load (its type is all the kernel needs)."""
     from numba import cfunc
 
     from modesel.multibody.kernel import LOADS_SIG
 
-    global _NO_LOADS
-    if _NO_LOADS is None:
-        @cfunc(LOADS_SIG)
-        def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
-            return 0
-        _NO_LOADS = no_loads
-    return _NO_LOADS
-
-
-_NO_LOADS = None
+    @cfunc(LOADS_SIG)
+    def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
+        return 0
+    return no_loads

@@ -249,9 +249,10 @@ class BladeAerodynamics(Effect):
         K = len(self.near)
         o_mom = packer.add(np.concatenate([[self.cm_scale], self.lumping.ravel(), self.offset.ravel(),
                                            self.node_slopes.ravel()]))
-        o_scr = packer.scratch(5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6 + B * M)
+        scratch = 5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6
+        o_scr = packer.scratch(scratch + B * M)
         # the last B M: each element's previous BEM root (NaN: none yet), `bem._solve_phi`'s guess
-        packer.set_state(o_scr + 5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6, np.full(B * M, np.nan))
+        packer.set_state(o_scr + scratch, np.full(B * M, np.nan))
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())

@@ -28,6 +28,7 @@ from typing import Callable
 import numpy as np
 
 from modesel.errors import ModeselError
+from modesel.simulation.first_run import die_with_parent_signal
 from modesel.study.metrics import StopWhenMet
 from modesel.study.search import engine as engines
 from modesel.study.search.claims import abandoned, distinct_sets
@@ -49,12 +50,7 @@ def die_with_parent(parent: int, poll_s: float = 0.1) -> None:
     `parent` is gone, even when it was killed with SIGKILL and had no chance
     to stop its workers. Linux: also PR_SET_PDEATHSIG; everywhere: a daemon
     thread polling the parent pid every `poll_s` seconds."""
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
+    die_with_parent_signal()
 
     def watch():
         while True:
