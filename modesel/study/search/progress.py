@@ -10,7 +10,7 @@ while the engine compiles on first use.
   ETA ..." on stderr, refreshed about once per wall second by the
   integrator's `progress` hook, shown once a run has taken more than
   `after_s` seconds (short runs print nothing).
-- `compile_notice`: "compiling the engine (first run only, ~1-2 min)..." on a terminal when
+- `compile_notice`: "compiling the engine (first run only, ~40 s)..." on a terminal when
   the numba cache of the engine's kernel holds no index file yet.
 - `CompileProgress`: while numba compiles (cache misses only), one line on a
   terminal with the functions compiled so far, the one being compiled and
@@ -25,7 +25,7 @@ from modesel.simulation.first_run import index_files
 
 #: wall seconds between redraws of the search bar while a trial runs
 REFRESH_S = 1.0
-COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~1-2 min)..."
+COMPILE_MESSAGE = "modesel: compiling the engine (first run only, ~40 s)..."
 #: modules whose @njit(cache=True) functions are compiled on first use (the
 #: kernel, by every simulation; the BEM functions compile only with aero, so
 #: they cannot tell a warm engine of a scene without aero)
