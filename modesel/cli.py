@@ -8,6 +8,15 @@ unless `--debug` is given; command-line syntax errors are one line too.
 SIGTERM is handled like SIGINT (Ctrl-C): the command stops gracefully
 (`modesel run` keeps the finished trials and writes their results), prints
 one line and exits with 143 (SIGTERM) or 130 (SIGINT).
+
+A signal that arrives while numba compiles may find the main thread inside
+one of llvmlite's ctypes callbacks (its object cache), where an exception is
+printed and dropped ("Exception ignored on calling ctypes callback"): the
+Ctrl-C would be lost, or the compiler left half-done fails later with an
+unrelated error. The handler therefore does not raise there but delivers the
+signal again a moment later (to itself), outside the callback;
+and any error that ends a command after a signal was received is reported as
+the interruption it follows.
 """
 from __future__ import annotations
 
@@ -16,6 +25,7 @@ import importlib
 import os
 import signal
 import sys
+import threading
 
 from modesel.errors import Interrupted, ModeselError
 
@@ -35,8 +45,45 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def _terminate(signum, frame):
-    raise Terminated()
+# Signals received during this command (names), for the report of an error
+# that follows one (module doc).
+RECEIVED: list[str] = []
+_RUNNING = threading.Event()    # set while `main` runs a command
+
+# Packages whose Python code may run inside C callbacks, where a raised
+# exception is dropped: a signal is put off while their code is on the stack.
+_CALLBACK_MODULES = ("llvmlite.",)
+REDELIVER_S = 0.05
+
+
+def _in_callback(frame) -> bool:
+    """Whether `frame` or a caller is code of `_CALLBACK_MODULES` (the callback
+    itself, or what it calls, such as numba's cache hook)."""
+    while frame is not None:
+        if str(frame.f_globals.get("__name__", "")).startswith(_CALLBACK_MODULES):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _on_signal(signum, frame):
+    """SIGINT / SIGTERM in the main thread: raise KeyboardInterrupt /
+    `Terminated`, unless C callback code is running (module doc): then
+    deliver the signal again in `REDELIVER_S`."""
+    name = "SIGTERM" if signum == signal.SIGTERM else "SIGINT"
+    if _in_callback(frame):
+        timer = threading.Timer(REDELIVER_S, _redeliver, args=(signum,))
+        timer.daemon = True
+        timer.start()
+        return
+    RECEIVED.append(name)
+    raise Terminated() if name == "SIGTERM" else KeyboardInterrupt()
+
+
+def _redeliver(signum):
+    """The signal again, in the main thread, if the command still runs."""
+    if _RUNNING.is_set():
+        os.kill(os.getpid(), signum)
 
 # One entry per command module in modesel/commands/ (add yours here).
 COMMANDS = (
@@ -97,7 +144,9 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    previous = _handle_sigterm()
+    previous = _handle_signals()
+    RECEIVED.clear()
+    _RUNNING.set()
     try:
         return int(args.func(args) or 0)
     except Interrupted as exc:
@@ -116,18 +165,30 @@ def main(argv: list[str] | None = None) -> int:
         terminated = isinstance(exc, Terminated)
         print(f"modesel: interrupted ({'SIGTERM' if terminated else 'SIGINT'})", file=sys.stderr)
         return 143 if terminated else 130
+    except Exception:
+        if args.debug or not RECEIVED:
+            raise
+        # an error that follows a signal (module doc): the signal is the cause
+        print(f"modesel: interrupted ({RECEIVED[0]})", file=sys.stderr)
+        return 143 if RECEIVED[0] == "SIGTERM" else 130
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        _RUNNING.clear()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
-def _handle_sigterm():
-    """Turn SIGTERM into `Terminated` in the main thread; returns the previous
-    handler (None when not in the main thread, where signals cannot be set)."""
-    try:
-        return signal.signal(signal.SIGTERM, _terminate)
-    except ValueError:
-        return None
+def _handle_signals() -> dict:
+    """`_on_signal` for SIGINT and SIGTERM in the main thread; returns the
+    previous handlers (none when not in the main thread, where signals cannot
+    be set, or where SIGINT is ignored, as in a search's worker)."""
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        try:
+            if signal.getsignal(signum) is not signal.SIG_IGN:
+                previous[signum] = signal.signal(signum, _on_signal)
+        except ValueError:
+            break
+    return previous
 
 
 if __name__ == "__main__":

@@ -90,9 +90,11 @@ def test_deck_cache_keeps_at_most_max_entries(tmp_path, monkeypatch):
 STEADY_08 = ROOT / "studies/data/openfast/steady_08/steady_08.fst"
 
 
-def _cold_simulate(tmp_path, out):
-    """`modesel simulate` of steady_08 (BEM loads) with an empty numba cache, in a subprocess."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+def _cold_simulate(tmp_path, out, site=None):
+    """`modesel simulate` of steady_08 (BEM loads) with an empty numba cache,
+    in a subprocess (with `site`'s sitecustomize.py when given)."""
+    path = [str(site)] if site else []
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(path + [str(ROOT), os.environ.get("PYTHONPATH", "")]),
                NUMBA_CACHE_DIR=str(tmp_path / "numba"), MODESEL_CACHE_DIR=str(tmp_path / "cache"))
     return subprocess.Popen([sys.executable, "-m", "modesel", "simulate", str(STEADY_08), "--tmax", "0.2",
                              "--out", str(out)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
@@ -142,6 +144,56 @@ def test_first_run_child_compiling_the_loads_never_outlives_the_command(tmp_path
     assert proc.returncode == 130, err
     assert err.strip().splitlines()[-1] == "modesel: interrupted (SIGINT)" and "Traceback" not in err
     assert not _alive(child[0])
+
+
+# Makes every call of llvmlite's object-cache callback (ctypes, run while numba
+# compiles) last 0.3 s and mark itself with a file, so that a signal can be
+# sent while the callback runs.
+SLOW_CALLBACK = """
+import os, time
+from llvmlite.binding import executionengine
+
+_set = executionengine.ExecutionEngine.set_object_cache
+_MARK = {mark!r}
+
+
+def set_object_cache(self, notify_func=None, getbuffer_func=None):
+    def slow_notify(module, buf):
+        open(_MARK, "w").close()
+        try:
+            time.sleep(0.3)
+        finally:
+            os.remove(_MARK)
+        return notify_func(module, buf)
+    return _set(self, slow_notify if notify_func else None, getbuffer_func)
+
+
+executionengine.ExecutionEngine.set_object_cache = set_object_cache
+"""
+
+
+def test_ctrl_c_while_numba_runs_a_ctypes_callback_still_stops_the_command(tmp_path):
+    """The CI failure of stop 17: Ctrl-C landed in llvmlite's object-cache
+    callback, which ctypes runs and where a raised exception is printed and
+    dropped; the compiler, left half-done, then failed ("no compiled object
+    yet", exit code 1 with a traceback), or the Ctrl-C was lost and the
+    command ran to the end (exit code 0). The handler now delivers the signal
+    again outside the callback (modesel.cli doc): one line, exit code 130."""
+    site = tmp_path / "site"
+    site.mkdir()
+    mark = tmp_path / "in_callback"
+    (site / "sitecustomize.py").write_text(SLOW_CALLBACK.format(mark=str(mark)))
+    proc = _cold_simulate(tmp_path, tmp_path / "out.csv", site=site)
+    deadline = time.monotonic() + 120
+    while not mark.exists():
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "numba's object-cache callback never ran"
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "modesel: interrupted (SIGINT)" and "Traceback" not in err
+    assert not (tmp_path / "out.csv").exists()
 
 
 @pytest.mark.slow

@@ -151,3 +151,59 @@ def test_atomic_write_leaves_old_file_or_new_file(tmp_path, monkeypatch):
         files.atomic_write_text(target, "new\n" * 1000)
     assert target.read_text() == "old\n"
     assert [p.name for p in tmp_path.iterdir()] == ["trials.csv"]      # no temporary file left
+
+
+def test_signal_in_a_c_callback_is_delivered_again_outside_it():
+    """Ctrl-C while llvmlite's ctypes callback runs (numba compiling: its
+    object cache) would be printed and dropped by ctypes; the handler puts it
+    off and delivers it again once that code has returned (modesel.cli doc).
+    The CI failure this mends: the dropped KeyboardInterrupt left numba's
+    compiler half-done and a traceback ended the command instead of the
+    one-line interruption."""
+    import types
+
+    from modesel import cli
+    callback = types.FunctionType(compile("def notify():\n    return frame()\n", "<llvmlite>", "exec").co_consts[0],
+                                  {"__name__": "llvmlite.binding.executionengine", "frame": sys._getframe})
+    assert cli._in_callback(callback()) and not cli._in_callback(sys._getframe())
+    cli.RECEIVED.clear()
+    cli._RUNNING.set()
+    previous = signal.signal(signal.SIGINT, cli._on_signal)
+    try:
+        assert cli._on_signal(signal.SIGINT, callback()) is None     # put off, not raised
+        assert cli.RECEIVED == []
+        with pytest.raises(KeyboardInterrupt):                       # delivered again here
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline:
+                time.sleep(0.01)
+        assert cli.RECEIVED == ["SIGINT"]
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        cli._RUNNING.clear()
+        cli.RECEIVED.clear()
+
+
+def test_error_after_a_signal_reports_the_interruption(monkeypatch, capsys):
+    """An error that ends a command after Ctrl-C (code left half-done by the
+    interrupt) is reported as the interruption: one line, exit code 130; the
+    same error without a signal stays an error with its traceback."""
+    from modesel import cli
+    from modesel.commands import docs
+
+    def interrupted_then_failing(args):
+        try:
+            cli._on_signal(signal.SIGINT, sys._getframe())
+        except KeyboardInterrupt:
+            pass                                     # dropped, as by a ctypes callback
+        raise RuntimeError("compiler state lost")
+
+    monkeypatch.setattr(docs, "run", interrupted_then_failing)
+    assert cli.main(["docs", "study-file"]) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["modesel: interrupted (SIGINT)"]
+
+    def failing(args):
+        raise RuntimeError("compiler state lost")
+
+    monkeypatch.setattr(docs, "run", failing)
+    with pytest.raises(RuntimeError):
+        cli.main(["docs", "study-file"])
