@@ -9,18 +9,21 @@ SIGTERM is handled like SIGINT (Ctrl-C): the command stops gracefully
 (`modesel run` keeps the finished trials and writes their results), prints
 one line and exits with 143 (SIGTERM) or 130 (SIGINT).
 
-A signal that arrives while numba compiles may find the main thread inside
-one of llvmlite's ctypes callbacks (its object cache), where an exception is
-printed and dropped ("Exception ignored on calling ctypes callback"): the
-Ctrl-C would be lost, or the compiler left half-done fails later with an
-unrelated error. The handler therefore does not raise there but delivers the
-signal again a moment later (to itself), outside the callback;
-and any error that ends a command after a signal was received is reported as
-the interruption it follows.
+Python drops an exception raised where it cannot propagate: in a ctypes
+callback (llvmlite's object cache, called back while numba compiles), a
+weakref callback (importlib's module locks), a `__del__`. A signal that lands
+there would be printed as "Exception ignored ..." and lost, and the code it
+interrupted may be left half-done (numba then fails later with an unrelated
+error). So: the handler does not raise while llvmlite code is on the stack
+but sends the signal again a moment later (to this process); a
+KeyboardInterrupt dropped anywhere else reaches `sys.unraisablehook`, which
+sends the signal again the same way; and an error that ends a command after
+a signal was received is reported as the interruption it follows.
 """
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import os
 import signal
@@ -72,18 +75,29 @@ def _on_signal(signum, frame):
     deliver the signal again in `REDELIVER_S`."""
     name = "SIGTERM" if signum == signal.SIGTERM else "SIGINT"
     if _in_callback(frame):
-        timer = threading.Timer(REDELIVER_S, _redeliver, args=(signum,))
-        timer.daemon = True
-        timer.start()
+        _send_again(signum)
         return
     RECEIVED.append(name)
     raise Terminated() if name == "SIGTERM" else KeyboardInterrupt()
 
 
-def _redeliver(signum):
-    """The signal again, in the main thread, if the command still runs."""
-    if _RUNNING.is_set():
-        os.kill(os.getpid(), signum)
+def _send_again(signum):
+    """Send `signum` to this process in `REDELIVER_S`, if the command still runs then."""
+    def send():
+        if _RUNNING.is_set():
+            os.kill(os.getpid(), signum)
+    timer = threading.Timer(REDELIVER_S, send)
+    timer.daemon = True
+    timer.start()
+
+
+def _unraisable(info, previous=None):
+    """`sys.unraisablehook` during a command: a KeyboardInterrupt that Python
+    dropped (module doc) is sent again; anything else goes to `previous`."""
+    if isinstance(info.exc_value, KeyboardInterrupt) and _RUNNING.is_set():
+        _send_again(signal.SIGTERM if isinstance(info.exc_value, Terminated) else signal.SIGINT)
+        return
+    (previous or sys.__unraisablehook__)(info)
 
 # One entry per command module in modesel/commands/ (add yours here).
 COMMANDS = (
@@ -145,6 +159,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     previous = _handle_signals()
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = functools.partial(_unraisable, previous=previous_hook)
     RECEIVED.clear()
     _RUNNING.set()
     try:
@@ -173,6 +189,7 @@ def main(argv: list[str] | None = None) -> int:
         return 143 if RECEIVED[0] == "SIGTERM" else 130
     finally:
         _RUNNING.clear()
+        sys.unraisablehook = previous_hook
         for signum, handler in previous.items():
             signal.signal(signum, handler)
 

@@ -147,14 +147,15 @@ def test_first_run_child_compiling_the_loads_never_outlives_the_command(tmp_path
 
 
 # Makes every call of llvmlite's object-cache callback (ctypes, run while numba
-# compiles) last 0.3 s and mark itself with a file, so that a signal can be
-# sent while the callback runs.
+# compiles) last 0.3 s and mark itself with a file named after its process (the
+# child that compiles the loads has callbacks of its own), so that a signal can
+# be sent to the command while the callback runs.
 SLOW_CALLBACK = """
 import os, time
 from llvmlite.binding import executionengine
 
 _set = executionengine.ExecutionEngine.set_object_cache
-_MARK = {mark!r}
+_MARK = {mark!r} + "." + str(os.getpid())
 
 
 def set_object_cache(self, notify_func=None, getbuffer_func=None):
@@ -187,6 +188,7 @@ def test_ctrl_c_while_numba_runs_a_ctypes_callback_still_stops_the_command(tmp_p
     mark = tmp_path / "in_callback"
     (site / "sitecustomize.py").write_text(SLOW_CALLBACK.format(mark=str(mark)))
     proc = _cold_simulate(tmp_path, tmp_path / "out.csv", site=site)
+    mark = tmp_path / f"in_callback.{proc.pid}"
     deadline = time.monotonic() + 120
     while not mark.exists():
         assert proc.poll() is None, proc.communicate()

@@ -207,3 +207,41 @@ def test_error_after_a_signal_reports_the_interruption(monkeypatch, capsys):
     monkeypatch.setattr(docs, "run", failing)
     with pytest.raises(RuntimeError):
         cli.main(["docs", "study-file"])
+
+
+def test_ctrl_c_dropped_in_a_weakref_callback_is_delivered_again():
+    """Ctrl-C raised inside a weakref callback (seen in CI: importlib's module
+    lock callback, while numba compiled) is dropped by Python and reaches
+    sys.unraisablehook; modesel's hook sends the signal again, so it arrives
+    as KeyboardInterrupt in ordinary code (modesel.cli doc)."""
+    import functools
+    import weakref
+
+    from modesel import cli
+
+    class Thing:
+        pass
+
+    def callback(ref):
+        cli._on_signal(signal.SIGINT, sys._getframe())      # raises here: dropped by Python
+
+    cli.RECEIVED.clear()
+    cli._RUNNING.set()
+    previous, hook = signal.signal(signal.SIGINT, cli._on_signal), sys.unraisablehook
+    seen = []
+    sys.unraisablehook = functools.partial(cli._unraisable, previous=seen.append)
+    try:
+        thing = Thing()
+        ref = weakref.ref(thing, callback)
+        del thing                                            # the callback runs and its raise is dropped
+        assert ref() is None and cli.RECEIVED == ["SIGINT"] and seen == []
+        with pytest.raises(KeyboardInterrupt):               # sent again, raised here
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline:
+                time.sleep(0.01)
+        assert cli.RECEIVED == ["SIGINT", "SIGINT"]
+    finally:
+        sys.unraisablehook = hook
+        signal.signal(signal.SIGINT, previous)
+        cli._RUNNING.clear()
+        cli.RECEIVED.clear()
