@@ -178,20 +178,24 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         if args.debug:
             raise
-        terminated = isinstance(exc, Terminated)
-        print(f"modesel: interrupted ({'SIGTERM' if terminated else 'SIGINT'})", file=sys.stderr)
-        return 143 if terminated else 130
+        return _stopped("SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
     except Exception:
         if args.debug or not RECEIVED:
             raise
-        # an error that follows a signal (module doc): the signal is the cause
-        print(f"modesel: interrupted ({RECEIVED[0]})", file=sys.stderr)
-        return 143 if RECEIVED[0] == "SIGTERM" else 130
+        return _stopped(RECEIVED[0])    # an error that follows a signal (module doc): the signal is the cause
     finally:
         _RUNNING.clear()
         sys.unraisablehook = previous_hook
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def _stopped(name: str) -> int:
+    """Print the one line of a command stopped by signal `name` ("SIGINT",
+    "SIGTERM") and return its exit code (`Interrupted`'s)."""
+    exc = Interrupted(f"interrupted ({name})", signal_name=name)
+    print(f"modesel: {exc}", file=sys.stderr)
+    return exc.exit_code
 
 
 def _handle_signals() -> dict:
