@@ -6,7 +6,10 @@ server against one worker (skipped, with the reason, when PostgreSQL or
 psycopg2 is missing).
 
 Run: python3 benchmarks/bench_search.py [--tower-sets 60] [--turbine-sets 8]
-     [--max-jobs N] [--skip-turbine] [--skip-postgres]
+     [--max-jobs N | --jobs 1,2,4,8,16] [--skip-tower] [--skip-turbine] [--skip-postgres]
+
+On a many-core machine, --jobs names the points of the curve (each run
+then needs at least as many sets as jobs, or some workers idle).
 
 Each run is the real command in a fresh process and a fresh output folder
 (no resume), with ``[budget] stop_when_met = false`` (a copy of the study
@@ -39,6 +42,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))                   # this checkout's modesel, installed or not
 STUDIES = {"tower": REPO / "studies" / "tower_free_decay.toml",
            "turbine": REPO / "studies" / "turbine_steady_wind.toml"}
 
@@ -84,12 +88,12 @@ def search_rates(storage, name: str) -> dict:
     return {"trials": len(done), "sets": sets, "span": span}
 
 
-def bench_jobs(label: str, study: Path, n_sets: int, max_jobs: int) -> list:
+def bench_jobs(label: str, study: Path, n_sets: int, jobs_list: list) -> list:
     rows = []
     with full_budget_copy(study) as copy, tempfile.TemporaryDirectory(prefix="bench-search-") as tmp:
         warm = Path(tmp) / "warm"              # compile, and build the internal reference once
         modesel("run", str(copy), "--out", str(warm), "--n-trials", "1", "--n-jobs", "1")
-        for jobs in range(1, max_jobs + 1):
+        for jobs in jobs_list:
             out = Path(tmp) / f"jobs{jobs}"
             if (warm / "reference").is_dir():
                 shutil.copytree(warm / "reference", out / "reference")
@@ -97,6 +101,8 @@ def bench_jobs(label: str, study: Path, n_sets: int, max_jobs: int) -> list:
                            "--n-jobs", str(jobs))
             r = search_rates(out / "study.journal", study_name(study))
             rows.append((label, f"--n-jobs {jobs}", r, wall))
+            print(f"  {label} --n-jobs {jobs}: {r['sets']} sets, search {r['span']:.1f} s, whole {wall:.1f} s",
+                  flush=True)
     return rows
 
 
@@ -216,16 +222,23 @@ def main_bench() -> None:
     p.add_argument("--tower-sets", type=int, default=60, help="sets simulated per run (tower study)")
     p.add_argument("--turbine-sets", type=int, default=8, help="sets simulated per run (turbine study)")
     p.add_argument("--max-jobs", type=int, default=os.cpu_count() or 1, help="N (default: the cores)")
+    p.add_argument("--jobs", type=lambda s: sorted({int(j) for j in s.split(",")}),
+                   help="the job counts of the curve, comma-separated (default: 1..N)")
+    p.add_argument("--skip-tower", action="store_true")
     p.add_argument("--skip-turbine", action="store_true")
     p.add_argument("--skip-postgres", action="store_true")
     a = p.parse_args()
+    jobs = a.jobs or list(range(1, a.max_jobs + 1))
+    a.max_jobs = max(jobs)
     print(f"{os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} (1 min) before; a CPU-bound "
           f"loop in {a.max_jobs} processes runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one "
           f"(the ceiling of any speed-up now)", flush=True)
-    rows = bench_jobs("tower", STUDIES["tower"], a.tower_sets, a.max_jobs)
-    print_rows(rows)
+    rows = []
+    if not a.skip_tower:
+        rows += bench_jobs("tower", STUDIES["tower"], a.tower_sets, jobs)
+        print_rows(rows)
     if not a.skip_turbine:
-        rows += bench_jobs("turbine", STUDIES["turbine"], a.turbine_sets, a.max_jobs)
+        rows += bench_jobs("turbine", STUDIES["turbine"], a.turbine_sets, jobs)
     if not a.skip_postgres:
         try:
             rows += bench_postgres("tower", STUDIES["tower"], a.tower_sets)
