@@ -50,6 +50,29 @@ def unit_csv_text(df, units: dict, float_format: str = "%.9g") -> str:
     return frame.to_csv(index=False, float_format=float_format)
 
 
+def columns_csv_text(columns: dict, units: dict, float_format: str = "%.9g") -> str:
+    """`unit_csv_text` of numeric columns {name: 1-D array, all one length}
+    without pandas (the `modesel simulate` path does not import it): the same
+    text as ``unit_csv_text(pandas.DataFrame(columns), units, float_format)``
+    (NaN as an empty field, as pandas writes it)."""
+    import csv
+    import io
+
+    import numpy as np
+    names = list(columns)
+    head = io.StringIO()
+    writer = csv.writer(head, lineterminator="\n")
+    writer.writerow(names)
+    writer.writerow([f"({units.get(c) or '-'})" for c in names])
+    table = np.column_stack([np.asarray(columns[c], float) for c in names]) if names else np.zeros((0, 0))
+    row = ",".join([float_format] * len(names)) + "\n"
+    nan = np.isnan(table).any(axis=1)
+    lines = [row % tuple(values) if not bad else
+             ",".join("" if v != v else float_format % v for v in values) + "\n"
+             for values, bad in zip(table.tolist(), nan.tolist())]
+    return head.getvalue() + "".join(lines)
+
+
 def is_unit_row(cells) -> bool:
     """Whether the cells of a CSV's second line are a unit row: every cell '(...)'."""
     cells = [str(c).strip() for c in cells]

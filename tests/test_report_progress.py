@@ -1,11 +1,12 @@
-"""What a person watching a run sees at its end (modesel.study.search.progress):
-the search bar finishes at done/done ("stopped early") when the run stops
+"""What a person watching a run sees at its end (modesel.study.search.progress,
+modesel.simulation.progress): the search bar finishes at done/done ("stopped early") when the run stops
 before its budget,
 and is erased when an error or an interrupt follows; the simulation line is
 erased before the command's summary."""
 import io
 
-from modesel.study.search.progress import Progress, SimulationProgress
+from modesel.simulation.progress import SimulationProgress
+from modesel.study.search.progress import Progress
 
 
 def test_bar_stopped_before_the_budget_ends_at_done_of_done(capsys):
@@ -57,7 +58,7 @@ def test_compile_line_names_what_numba_compiles_and_how_long_it_took():
     interrupted one erases the line (the command's one line follows)."""
     from numba import njit
 
-    from modesel.study.search.progress import CompileProgress
+    from modesel.simulation.progress import CompileProgress
 
     stream = io.StringIO()
     with CompileProgress(stream=stream, enabled=True):

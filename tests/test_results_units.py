@@ -72,6 +72,25 @@ def test_csv_reference_accepts_a_unit_row(tmp_path):
     assert units.attrs["units"] == {"Time": "s", "TTDspFA": "m"} and plain.attrs["units"] == {}
 
 
+def test_columns_csv_is_the_pandas_csv_without_pandas(tmp_path):
+    """`modesel simulate` writes its CSV from the result's columns
+    (`files.columns_csv_text`): the text pandas writes for the same table
+    (NaN empty, signed zeros and infinities, "%.9g"), read back alike."""
+    from modesel.files import columns_csv_text, unit_csv_text
+    rng = np.random.default_rng(3)
+    columns = {"Time": np.arange(7) * 0.05, "RtAeroMxh": rng.normal(size=7) * 1e7,
+               "GenPwr": np.array([np.nan, -0.0, np.inf, -np.inf, 1e-300, 5.0, np.nan]),
+               "Q_B1F1": rng.normal(size=7) * 1e-9}
+    units = {"Time": "s", "RtAeroMxh": "N m", "GenPwr": "kW"}
+    text = columns_csv_text(columns, units)
+    assert text == unit_csv_text(pd.DataFrame(columns), units)
+    (tmp_path / "out.csv").write_text(text)
+    back = read_unit_csv(tmp_path / "out.csv")
+    assert back.attrs["units"] == {"Time": "s", "RtAeroMxh": "N m", "GenPwr": "kW", "Q_B1F1": "-"}
+    np.testing.assert_allclose(back["RtAeroMxh"], columns["RtAeroMxh"], rtol=1e-8)
+    assert back["GenPwr"].isna().tolist() == [True, False, False, False, False, False, True]
+
+
 def test_study_file_reference_is_generated_from_the_schema():
     """docs/study-file.md is what `modesel docs study-file` prints (a fresh
     process: the tests register fake families in this one)."""
@@ -125,7 +144,8 @@ def test_simulate_csv_units_dofs_effects_and_inert_wind(tmp_path, capsys):
 
 
 def test_progress_bar_and_simulation_line(capsys):
-    from modesel.study.search.progress import Progress, SimulationProgress, speed_text
+    from modesel.simulation.progress import SimulationProgress, speed_text
+    from modesel.study.search.progress import Progress
     bar = Progress(4, "s", enabled=True, quiet=False)
     bar.set(2, 0.0123, 1)
     bar.close()

@@ -357,6 +357,58 @@ def compiled_loads(rng):
     return out
 
 
+def channel_pairs(built, rng, what, n=6, speeds=(0.3, 1.6)):
+    """The effects' output channels at n states in increasing time: one
+    compiled pass (`CompiledRHS.outputs`, the effects write them inside the
+    kernel) / the effects' Python `__call__` and `channels` at each state
+    (`outputs.python_effect_channels`); latched switches advance alike."""
+    from types import SimpleNamespace
+
+    from modesel.model.outputs import python_effect_channels
+    effects = [e for e in built.acting if e.CHANNELS]
+    names = [c for e in effects for c in e.CHANNELS]
+    assert names, "the scene must have effects with channels"
+    free = list(built.model.system.free)
+    q = built.q0 + rng.normal(size=(n, len(free))) * 0.05
+    qd = rng.normal(size=(n, len(free))) * 0.05
+    if "GeAz" in free:
+        q[:, free.index("GeAz")] = rng.uniform(0.0, 2 * np.pi, n)
+        qd[:, free.index("GeAz")] = rng.uniform(*speeds, n)
+    integ = SimpleNamespace(t=np.sort(rng.uniform(0.0, 30.0, n)), q=q, qd=qd)
+    compiled = built.rhs(all_rows=True).outputs(integ.t, q, qd, (), names)
+    reference = python_effect_channels(built, integ, effects)
+    return [(f"{what} {c}", reference[c], compiled[:, k]) for k, c in enumerate(names)]
+
+
+@twin("compiled_channels")
+def compiled_channels(rng):
+    """The effects' output channels (AeroDyn's RtAeroFxh/Mxh/Pwr/Cp, GenTq, GenPwr): one
+    compiled pass over the output times, CompiledRHS.outputs (the effects write them
+    inside the kernel) / the effects' Python __call__ and channels at each time
+    (model/outputs.py python_effect_channels), ServoDyn's switches latching alike."""
+    out = channel_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
+                                      "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
+    out += channel_pairs(turbine_with({"wind": {"time_series": [[0.0, 6.0], [10.0, 14.0], [20.0, 9.0]],
+                                                "direction_deg": 8.0},
+                                       "aero": {"skew": True}, "generator": {"mode": "constant", "torque": 3.0e4}},
+                                      modes={"tower_fa": {"family": "elastodyn", "count": 1},
+                                             "blade_flap": {"family": "elastodyn", "count": 1}}),
+                         rng, "series wind, skew, rigid edge")
+    out += channel_pairs(turbine_with({"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
+                                       "generator": {"mode": "variable_speed"}}),
+                         rng, "ElastoDyn blade nodes")
+    out += channel_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
+                                                     "rated_torque": 43093.55, "region2_k": 0.0255764,
+                                                     "slip_percent": 10.0, "on_speed_rpm": 900.0}}),
+                         rng, "ServoDyn VSContrl 1", n=12, speeds=(0.5, 1.5))
+    out += channel_pairs(turbine_with({"generator": {"mode": "induction", "sync_speed_rpm": 1200.0,
+                                                     "rated_torque": 4.0e4, "slip_percent": 1.0,
+                                                     "pullout_ratio": 2.0, "off_time": 20.0,
+                                                     "off_when_no_power": True}}),
+                         rng, "ServoDyn induction", n=12, speeds=(1.3, 1.4))    # above sync: on until 20 s
+    return out
+
+
 # ----------------------------------------------------------------------------- the test
 
 @pytest.mark.parametrize("name", list(TWINS))

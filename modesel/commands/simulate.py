@@ -27,10 +27,10 @@ def register(sub):
 
 
 def run(args) -> int:
-    from modesel.files import unit_csv_text
+    from modesel.files import columns_csv_text
     from modesel.model.effects import effects_in_scene
     from modesel.simulation.api import load_scene, simulate
-    from modesel.study.search.progress import CompileProgress, SimulationProgress, speed_text
+    from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
     scene = load_scene(args.scene)
     line = SimulationProgress(f"{scene.name}: ")
     try:
@@ -38,9 +38,8 @@ def run(args) -> int:
             result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line)
     finally:
         line.close()
-    outputs = result.outputs
-    units = dict(outputs.attrs.get("units", {}), Time="s")
-    atomic_write_text(args.out, unit_csv_text(outputs, {c: units.get(c, "?") for c in outputs.columns}))
+    units = dict(result.units, Time="s")
+    atomic_write_text(args.out, columns_csv_text(result.columns, {c: units.get(c, "?") for c in result.columns}))
     on, flags, warnings = effects_in_scene(scene, result.dof_names)
     print(f"{scene.name}: {result.n_dofs} DOFs ({', '.join(result.dof_names)})")
     print(f"  effects evaluated: {', '.join(on) or 'none'}; system flags on: {', '.join(flags) or 'none'}")

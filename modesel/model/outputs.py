@@ -75,12 +75,11 @@ def channel_unit(name: str) -> str | None:
 
 def channels(built, integ, wanted=None):
     """Channels of `built` (simulation.assembly.Built) along `integ`
-    (integrate.Integration): a pandas DataFrame (pandas imported here, not by
-    the modules that only need `channel_unit`). wanted: None (all), or the
-    names needed: the effects' channels and reaction loads, which cost an
-    evaluation per output time, are then left out unless named (the
-    coordinates, speeds, deflections and shaft torque are always there)."""
-    import pandas as pd
+    (integrate.Integration): {name: 1-D array over the output times}, 'Time'
+    first. wanted: None (all), or the names needed: the effects' channels and
+    reaction loads, which cost an evaluation per output time, are then left
+    out unless named (the coordinates, speeds, deflections and shaft torque
+    are always there)."""
     model = built.model
     names = list(model.system.free)
     idx = {n: i for i, n in enumerate(names)}
@@ -126,7 +125,7 @@ def channels(built, integ, wanted=None):
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
     data.update(shaft_torque(built, coord, data["RotSpeed"]))
     data.update(load_channels(built, integ, wanted))
-    return pd.DataFrame(data)
+    return data
 
 
 def tip_deflections(model, coord, t) -> dict:
@@ -176,28 +175,42 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
 
 def load_channels(built, integ, wanted=None) -> dict:
     """Effect channels and reaction loads at every output time (empty when
-    the scene has neither), those in `wanted` unless it is None. The reaction
-    loads come from one compiled call over all output times, with the
-    effects' loads inside the compiled loop (`Built.rhs`); the effect
-    channels from the effects that have channels, evaluated in Python at
-    each output time (they see the same state)."""
+    the scene has neither), those in `wanted` unless it is None (an effect's
+    channels come all together). Where every effect runs compiled, both come
+    from one compiled pass over the output times, the effects' loads and
+    channels inside it (`CompiledRHS.outputs`); otherwise the effect channels
+    come from the effects' Python `__call__` and `channels` at each output
+    time (`python_effect_channels`, the reference of the compiled ones)."""
     with_channels = [e for e in built.acting if type(e).channels is not Effect.channels
                      and (wanted is None or set(e.CHANNELS) & set(wanted))]
     reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
     if not with_channels and not reactions:
         return {}
-    out = {}
-    if reactions:
-        out.update(_reaction_channels(built, integ, reactions))
-    if not with_channels:
+    names = [c for e in with_channels for c in e.CHANNELS]
+    rhs = built.rhs(all_rows=True)
+    if not all(c in getattr(rhs, "channels", {}) for c in names):
+        out = _reaction_channels(built, integ, reactions, rhs) if reactions else {}
+        out.update(python_effect_channels(built, integ, with_channels))
         return out
+    rows = list(reactions.values())
+    values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names)
+    out = {n: values[:, k] / 1e3 for k, n in enumerate(reactions)}
+    out.update({n: values[:, len(rows) + k] for k, n in enumerate(names)})
+    return out
+
+
+def python_effect_channels(built, integ, effects) -> dict:
+    """The output channels of `effects` at every output time of `integ`, from
+    their Python `__call__` and `channels` (each sees the same state; their
+    latched switches advance with the times)."""
+    out = {}
     eq = built.eq
     gen = np.zeros(eq.n_all)
     for k, ti in enumerate(integ.t):
         q_all, qd_all, _ = eq.full_state(integ.q[k], integ.qd[k], ti)
         gen[:] = 0.0
         nodes = {}
-        for e in with_channels:
+        for e in effects:
             e(built, ti, q_all, qd_all, gen, nodes)
             for name, value in e.channels(built).items():
                 if name not in out:
@@ -206,12 +219,11 @@ def load_channels(built, integ, wanted=None) -> dict:
     return out
 
 
-def _reaction_channels(built, integ, reactions) -> dict:
+def _reaction_channels(built, integ, reactions, rhs) -> dict:
     """Reaction loads [kN, kN m] (module doc) of `reactions` {channel:
-    coordinate} along `integ`."""
+    coordinate} along `integ`; rhs: `built.rhs(all_rows=True)`."""
     names = list(reactions)
     rows = [reactions[n] for n in names]
-    rhs = built.rhs(all_rows=True)
     if hasattr(rhs, "reactions"):
         loads = rhs.reactions(integ.t, integ.q, integ.qd, rows)
         return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}

@@ -31,10 +31,14 @@ class CompiledRHS:
     loads: None, or (numba cfunc of `kernel.LOADS_SIG`, ints, floats, state):
     the effects' loads evaluated inside the kernel at every right-hand side
     (`modesel.model.effects.compiled` packs them); state is modified in
-    place (scratch and latched switches)."""
+    place (scratch and latched switches). channels: {output channel: (state
+    index, scale)}: the effects' output channels, state[index] * scale after
+    an evaluation with state[channel_flag] set (`outputs`)."""
 
-    def __init__(self, eq, linear=(), *, all_rows=False, loads=None):
+    def __init__(self, eq, linear=(), *, all_rows=False, loads=None, channels=None, channel_flag=-1):
         self.eq = eq
+        self.channels = dict(channels or {})
+        self.channel_flag = int(channel_flag)
         self.packed = eq.packed_full if all_rows else eq.packed_free
         n, nf = eq.n_all, len(eq.free_idx)
         lin = list(linear)
@@ -107,21 +111,43 @@ class CompiledRHS:
         """Reaction loads F_r - M_r qdd [N or N m] of coordinates `rows`
         (names, e.g. the models' reaction coordinates) at times t (n_t,) and
         free states q, qd (n_t, n_free): (n_t, len(rows)). Needs all_rows."""
+        return self.outputs(t, q, qd, rows)
+
+    def outputs(self, t, q, qd, rows=(), channels=()):
+        """Reaction loads of coordinates `rows` (as `reactions`) and the
+        effects' output `channels` (names in `self.channels`, scaled) at times
+        t (n_t,) and free states q, qd (n_t, n_free), in one compiled pass
+        over the times: (n_t, len(rows) + len(channels)), NaN throughout
+        where an evaluation fails. The effects' latched switches advance with
+        the times, as in an integration. Needs all_rows."""
         if self.packed is not self.eq.packed_full:
             raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
         t = np.atleast_1d(np.asarray(t, float))
         X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
         idx = np.array([self.eq.index[r] for r in rows], np.int64)
-        out = np.zeros((len(t), len(idx)))
-        if not self.compilable:
-            for k, tk in enumerate(t):
-                tk0, prob = self._problem_at(tk)
-                kernel.reaction_loads(np.array([tk0]), X[k:k + 1], idx, prob, self.rwork, self.packed.data,
-                                      self.packed.work, out[k:k + 1])
-            return out
-        code = kernel.reaction_loads(t, X, idx, self.prob, self.rwork, self.packed.data, self.packed.work, out)
+        slots = np.array([self.channels[c][0] for c in channels], np.int64)
+        out = np.zeros((len(t), len(idx) + len(slots)))
+        state = self.prob[9][3] if self.has_loads else None
+        if len(slots):
+            state[self.channel_flag] = 1.0
+        try:
+            if self.compilable:
+                code = kernel.reaction_loads(t, X, idx, slots, self.prob, self.rwork, self.packed.data,
+                                             self.packed.work, out)
+            else:
+                code = kernel.OK
+                for k, tk in enumerate(t):
+                    tk0, prob = self._problem_at(tk)
+                    code = kernel.reaction_loads(np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
+                                                 self.packed.data, self.packed.work, out[k:k + 1])
+                    if code != kernel.OK:
+                        break
+        finally:
+            if len(slots):
+                state[self.channel_flag] = 0.0
         if code != kernel.OK:
             out[:] = np.nan
+        out[:, len(idx):] *= np.array([self.channels[c][1] for c in channels])
         return out
 
     def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):

@@ -775,14 +775,28 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     return OK, -1
 
 
+def _load_state(loads):
+    """The effects' state array of `loads` (empty without loads)."""
+
+
+@overload(_load_state, jit_options={"cache": True})
+def _load_state_impl(loads):
+    if isinstance(loads, types.NoneType):
+        return lambda loads: np.zeros(0)
+    return lambda loads: loads[3]
+
+
 @njit(cache=True)
-def reaction_loads(ts, X, rows, prob, rwork, data, work, out):
+def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
     """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
     `rows` at the states X[k] = [q, qd] and times ts[k] (a constraint
-    coordinate's equation gives the load that holds it, first paper eq. 22);
-    needs arrays packed with all rows. Returns a status code."""
+    coordinate's equation gives the load that holds it, first paper eq. 22)
+    into out[k, :len(rows)], and the effects' state at `slots` after the same
+    evaluation (their output channels) into the columns after; needs arrays
+    packed with all rows. Returns a status code."""
     nf = X.shape[1] // 2
     n = rwork[1].shape[0]
+    nr = rows.shape[0]
     acc = np.empty(2 * nf)
     inf = np.full(nf, np.inf)
     qdd = np.empty(n)
@@ -790,6 +804,9 @@ def reaction_loads(ts, X, rows, prob, rwork, data, work, out):
         code, _ = free_system(ts[k], X[k], acc, True, inf, prob, rwork, data, work)
         if code != OK:
             return code
+        state = _load_state(prob[9])
+        for j in range(slots.shape[0]):
+            out[k, nr + j] = state[slots[j]]
         M, F, qddp = rwork[1], rwork[2], rwork[0][2]
         for i in range(n):
             qdd[i] = qddp[i]

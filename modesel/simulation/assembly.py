@@ -135,12 +135,14 @@ class Built:
             return self.M_F
         if not self.acting:
             return self.eq.compiled_rhs(self.linear, all_rows=all_rows)
-        from modesel.model.effects.compiled import pack_loads
+        from modesel.model.effects.compiled import CHANNEL_FLAG, pack_loads
         packed = self.eq.packed_full if all_rows else self.eq.packed_free
-        loads = pack_loads(self, packed.node_start)
-        if loads is None:
+        packing = pack_loads(self, packed.node_start)
+        if packing is None:
             return self.M_F
-        return CompiledRHS(self.eq, self.linear, all_rows=all_rows, loads=loads)
+        loads, channels = packing
+        return CompiledRHS(self.eq, self.linear, all_rows=all_rows, loads=loads, channels=channels,
+                           channel_flag=CHANNEL_FLAG)
 
 
 def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:

@@ -14,7 +14,7 @@ machine this takes the first run of `steady_08` from about 57 s to about 40 s
 of wall time (README, Benchmarks).
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
-in numba's cache yet (`study.search.progress` uses them for its notice).
+in numba's cache yet (`simulation.progress` uses them for its notice).
 """
 from __future__ import annotations
 

@@ -56,7 +56,7 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     progress: optional progress(t, tmax) hook of the integrator.
     channels: None (every output channel), or the names needed (a search's
     compared channels): effect channels and reaction loads not named are
-    left out (`outputs.channels`; about 0.3 ms per output time with BEM).
+    left out (`outputs.channels`; about one right-hand side per output time).
     Runs with one BLAS thread (`integrate.single_thread_blas`)."""
     with single_thread_blas():
         return _simulate(scene, modeset, tmax, dt, progress, channels)
@@ -104,9 +104,9 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
-    df = channels(built, integ, None if wanted is None else set(wanted))
-    df.attrs["units"] = {c: u for c in df.columns if (u := channel_unit(c)) is not None}
-    return SimulationResult(df, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs)
+    columns = channels(built, integ, None if wanted is None else set(wanted))
+    units = {c: u for c in columns if (u := channel_unit(c)) is not None}
+    return SimulationResult(columns, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs, units)
 
 
 def _name(names, index: str) -> str:

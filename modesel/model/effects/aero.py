@@ -94,6 +94,10 @@ from modesel.model.effects.base import Effect, Option
 from modesel.aero.wind import wind_velocity
 from modesel.multibody.kinematics import PointSet
 
+#: |V_dot_x| [m/s] under which RtAeroCp is 0 (AeroDyn_IO.f90: its denominator
+#: holds V_dot_x cubed)
+CP_MIN_WIND = 0.04
+
 
 @functools.lru_cache(maxsize=8)
 def _read_deck(path: str):
@@ -235,7 +239,7 @@ class BladeAerodynamics(Effect):
         o = s.options
         grid, value, slope = s.polars.arrays
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
-                              o.tolerance])
+                              o.tolerance, self.rmax])
         o_elem = packer.add(buf.chord.ravel())
         o_T = packer.add(self.transfer)
         o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
@@ -253,14 +257,19 @@ class BladeAerodynamics(Effect):
         o_scr = packer.scratch(scratch + B * M)
         # the last B M: each element's previous BEM root (NaN: none yet), `bem._solve_phi`'s guess
         packer.set_state(o_scr + scratch, np.full(B * M, np.nan))
+        o_ch = packer.scratch(len(self.CHANNELS))
+        for k, name in enumerate(self.CHANNELS):
+            packer.channel(name, o_ch + k)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
-                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K]
+                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
                  o.skew_correction, o.max_iterations]
+        for nodes in self.nodes:            # read only for the channels (`compiled._rotor_channels`)
+            ints += point_set_ints(packer, nodes)
         packer.record(AERO, ints)
 
     def channels(self, built):
@@ -285,7 +294,7 @@ class BladeAerodynamics(Effect):
         power = torque * omega
         v = self.last["v_dot_x"]
         area = np.pi * self.rmax**2
-        cp = power / (0.5 * self.bem.solver.air_density * area * v**3) if abs(v) >= 0.04 else 0.0
+        cp = power / (0.5 * self.bem.solver.air_density * area * v**3) if abs(v) >= CP_MIN_WIND else 0.0
         return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp}
 
 

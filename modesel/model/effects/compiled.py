@@ -18,7 +18,8 @@ sides equal).
 Layout: ints[0] = number of records; each record starts with (kind, length
 in ints) followed by its kind's ints, which hold offsets into floats and
 state. state[0:N_PARAMS] is the wind at the current time (the wind record,
-first, writes it).
+first, writes it); state[CHANNEL_FLAG] asks for the output channels, which
+the records write into state slots (`Packer.channel`).
 """
 from __future__ import annotations
 
@@ -28,17 +29,19 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import distribute, elastic_correction, inflow, node_moments, station_rotations
+from modesel.model.effects.aero import (CP_MIN_WIND, distribute, elastic_correction, inflow, node_moments,
+                                        rotor_loads, station_rotations)
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
 
-from modesel.model.effects.packing import AERO, GENERATOR, TOWER_DRAG, WIND, Packer  # noqa: F401
+from modesel.model.effects.packing import AERO, CHANNEL_FLAG, GENERATOR, TOWER_DRAG, WIND, Packer  # noqa: F401
 
 
 def pack_loads(built, node_start):
-    """(effect_loads, ints, floats, state) for `CompiledRHS(loads=...)`, or
-    None when an acting effect has no compiled form (`compile_loads`).
+    """((effect_loads, ints, floats, state) for `CompiledRHS(loads=...)`,
+    {output channel: (state slot, scale)} for its `channels`), or None when
+    an acting effect has no compiled form (`compile_loads`).
     node_start: {flexible body: (first node, count)} of the packed arrays."""
     acting = built.acting
     if not acting:
@@ -53,7 +56,7 @@ def pack_loads(built, node_start):
                                                                            w.reference_length])])
     for e in acting:
         e.compile_loads(built, packer, node_start)
-    return (effect_loads,) + packer.arrays()
+    return (effect_loads,) + packer.arrays(), dict(packer.channels)
 
 
 @njit(cache=True)
@@ -88,8 +91,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
                                                                 ints[p + 10])
     o_ref, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
                                                           ints[p + 14], ints[p + 15], ints[p + 16])
-    has_corr, o_mom, K = ints[p + 17], ints[p + 18], ints[p + 19]
-    p += 20
+    has_corr, o_mom, K, o_ch = ints[p + 17], ints[p + 18], ints[p + 19], ints[p + 20]
+    p += 21
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -148,7 +151,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     wp = state[0:N_PARAMS]
     inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
            tip_ratio, vrel)
-    c = floats[o_const:o_const + 6]
+    c = floats[o_const:o_const + 7]
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
     r = r_local.ravel()
@@ -189,6 +192,36 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
             for k in range(6):
                 fnodes[s + i, k] += forces[b, i, k]
         fflag[blades[b]] = 1
+    if state[CHANNEL_FLAG] != 0.0:          # the node point sets follow the 7 flags
+        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], c[6], vrel,
+                        state[o_ch:o_ch + 4])
+
+
+@njit(cache=True)
+def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rmax, vrel, out):
+    """AeroDyn's rotor channels (effects/aero.py `BladeAerodynamics.channels`)
+    of the node loads `forces` (B, N, 6) into out: RtAeroFxh [N], RtAeroMxh
+    [N m], RtAeroPwr [W], RtAeroCp [-]; the node point sets' ints start at p."""
+    B, N = forces.shape[0], forces.shape[1]
+    pos = np.empty((N, 3))
+    vel = np.empty((N, 3))
+    thrust = 0.0
+    torque = 0.0
+    for b in range(B):
+        p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel)
+        f, m = rotor_loads(forces[b], pos, R[hub], vec[hub, 0])
+        thrust += f
+        torque += m
+    omega = 0.0
+    v = 0.0
+    for k in range(3):
+        omega += vec[hub, 2, k] * R[hub, k, 0]
+        v += vrel[k] * R[hub, k, 0]
+    power = torque * omega
+    out[0] = thrust
+    out[1] = torque
+    out[2] = power
+    out[3] = power / (0.5 * rho * np.pi * rmax * rmax * v ** 3) if abs(v) >= CP_MIN_WIND else 0.0
 
 
 @njit(cache=True)

@@ -207,6 +207,8 @@ class Generator(Effect):
         o_s = packer.scratch(4)
         self.latch_slot = o_s
         packer.record(GENERATOR, [self.i, law, o_f, o_s])
+        packer.channel("GenTq", o_s + 2, 1e-3)          # `_generator` writes T [N m], P [W]
+        packer.channel("GenPwr", o_s + 3, 1e-3)
         packer.set_state(o_s, [float(self.online_latched), float(self.off_latched)])
 
     def compiled_parameters(self):

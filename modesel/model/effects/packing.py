@@ -10,6 +10,11 @@ from modesel.aero.wind import N_PARAMS
 
 WIND, AERO, TOWER_DRAG, GENERATOR = 0, 1, 2, 3
 
+#: state[CHANNEL_FLAG] != 0: the effects also write their output channels
+#: that cost work (the aerodynamic rotor loads) into their channel slots;
+#: set only for the pass over the output times (`CompiledRHS.outputs`)
+CHANNEL_FLAG = N_PARAMS
+
 
 class Packer:
     """Accumulates the ints, floats and state of the load records."""
@@ -18,8 +23,9 @@ class Packer:
         self.ints = [0]
         self.floats = []
         self.n_floats = 0
-        self.n_state = N_PARAMS
+        self.n_state = CHANNEL_FLAG + 1
         self.initial = {}
+        self.channels = {}
 
     def add(self, array) -> int:
         """Append an array to floats; its offset."""
@@ -38,6 +44,11 @@ class Packer:
     def set_state(self, off, values):
         """Initial values of state floats from `off`."""
         self.initial[off] = np.asarray(values, float)
+
+    def channel(self, name, off, scale=1.0):
+        """Output channel `name` (OpenFAST's) is state[off] * scale after each
+        evaluation with the channel flag set."""
+        self.channels[name] = (int(off), float(scale))
 
     def record(self, kind, ints):
         self.ints += [kind, len(ints) + 2] + [int(i) for i in ints]

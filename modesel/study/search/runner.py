@@ -35,7 +35,8 @@ from modesel.study.search.claims import abandoned, distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
-from modesel.study.search.progress import CompileProgress, Progress, counts
+from modesel.simulation.progress import CompileProgress
+from modesel.study.search.progress import Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
 from modesel.study.search.owners import OWNER, process_owner
 from modesel.study.search.storage import (check_against_results, default_storage, note_lost_trials, open_storage,
