@@ -202,6 +202,30 @@ def test_ctrl_c_while_numba_runs_a_ctypes_callback_still_stops_the_command(tmp_p
     assert not (tmp_path / "out.csv").exists()
 
 
+def test_kernel_argument_types_do_not_depend_on_the_model():
+    """The first run's child compiles the reaction loads on a small stand-in
+    problem (`first_run.STAND_IN_SCENE`) for the simulation's own: numba's
+    types of the kernel's arguments (problem, work arrays, packed equations)
+    are the same for that scene, an OpenFAST case with BEM and a tower-only
+    scene, with the stand-in loads and without loads, so the compiled loop
+    serves them all."""
+    from numba import typeof
+
+    from modesel.multibody.compiled import CompiledRHS
+    from modesel.simulation import first_run
+    from modesel.simulation.api import build, load_scene
+    from modesel.simulation.scene import scene_from_dict
+    scenes = [scene_from_dict(first_run.STAND_IN_SCENE), load_scene(str(STEADY_08)),
+              load_scene(str(ROOT / "studies" / "scenes" / "paper_3dof_land.toml"))]
+    builts = [build(s, reactions=True) for s in scenes]
+    for loads in (first_run._stand_in_loads(), None):
+        kinds = set()
+        for b in builts:
+            rhs = CompiledRHS(b.eq, b.linear, all_rows=True, loads=loads)
+            kinds.add(typeof((rhs.prob, rhs.rwork, rhs.packed.data, rhs.packed.work)))
+        assert len(kinds) == 1
+
+
 @pytest.mark.slow
 def test_first_run_compiled_in_parallel_gives_the_warm_run(tmp_path):
     """The cold run (loads compiled by the child, the kernel against a stand-in

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, STEP_COLLAPSE,
+from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE, STEP_COLLAPSE,
                                       free_system, lu_factor, lu_solve_factored, start)
 
 S6 = 6 ** 0.5
@@ -106,7 +106,7 @@ def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work,
         h = JAC_REL_STEP * max(abs(x[j]), JAC_FLOOR)
         scratch[j] = x[j] + h
         h = scratch[j] - x[j]
-        code, _ = free_system(t, scratch, out, True, inf_bounds, prob, rwork, data, work)
+        code, _ = free_system(t, scratch, out, SOLVE, inf_bounds, prob, rwork, data, work)
         counts[0] += 1
         scratch[j] = x[j]
         if code != OK:
@@ -262,7 +262,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                     for s in range(3):
                         for i in range(nx):
                             scratch[i] = y[i] + Z[s, i]
-                        code, idx = free_system(t + Cc[s] * h, scratch, tmp, True, bounds, prob, rwork, data,
+                        code, idx = free_system(t + Cc[s] * h, scratch, tmp, SOLVE, bounds, prob, rwork, data,
                                                 work)
                         nfev += 1
                         if code != OK:
@@ -334,7 +334,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             if rejected and error_norm > 1:
                 for i in range(nx):
                     scratch[i] = y[i] + err[i]
-                code, idx = free_system(t, scratch, tmp, True, inf_bounds, prob, rwork, data, work)
+                code, idx = free_system(t, scratch, tmp, SOLVE, inf_bounds, prob, rwork, data, work)
                 nfev += 1
                 if code == OK:
                     for i in range(nx):
@@ -354,7 +354,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             factor = 1.0
         else:
             have_lu = False
-        code, idx = free_system(t_new, y_new, f_new, True, bounds, prob, rwork, data, work)
+        code, idx = free_system(t_new, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
         nfev += 1
         if code != OK:
             return code, t_new, nfev + counts[0], n_out, idx, counts[1], n_lu, n_steps

@@ -703,6 +703,13 @@ def _loads_and_assemble_impl(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, 
     return loaded
 
 
+#: the `solve` argument of `free_system` in compiled callers: numba types a
+#: literal True as Literal[bool](True) and would compile free_system a second
+#: time beside the plain-bool version Python calls, re-optimising all it links
+#: (about 8 s of a first run); a numpy bool is typed plain bool
+SOLVE = np.bool_(True)
+
+
 @njit(cache=True)
 def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     """Equations of the free coordinates at time t and state x = [q, qd]:
@@ -801,7 +808,7 @@ def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
     inf = np.full(nf, np.inf)
     qdd = np.empty(n)
     for k in range(ts.shape[0]):
-        code, _ = free_system(ts[k], X[k], acc, True, inf, prob, rwork, data, work)
+        code, _ = free_system(ts[k], X[k], acc, SOLVE, inf, prob, rwork, data, work)
         if code != OK:
             return code
         state = _load_state(prob[9])
@@ -850,7 +857,7 @@ def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork
     h0 = min(h0, tmax)
     for i in range(nx):
         ys[i] = y[i] + h0 * f[i]
-    code, idx = free_system(t + h0, ys, f1, True, bounds, prob, rwork, data, work)
+    code, idx = free_system(t + h0, ys, f1, SOLVE, bounds, prob, rwork, data, work)
     if code != OK:
         return code, idx, t + h0
     for i in range(nx):
@@ -869,7 +876,7 @@ def start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, wo
     initial step for an error estimator of `order` (`initial_step`):
     (status, index, step, n_rhs), or (status, index, time of the failure,
     n_rhs) when a right-hand side fails."""
-    code, idx = free_system(0.0, y, f, True, bounds, prob, rwork, data, work)
+    code, idx = free_system(0.0, y, f, SOLVE, bounds, prob, rwork, data, work)
     if code != OK:
         return code, idx, 0.0, 1
     code, idx, h_abs = initial_step(0.0, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
@@ -885,7 +892,7 @@ def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
         for j in range(s):
             acc += K[j, i] * A[s, j]
         ys[i] = y[i] + acc * h
-    return free_system(t + C[s] * h, ys, K[s], True, bounds, prob, rwork, data, work)
+    return free_system(t + C[s] * h, ys, K[s], SOLVE, bounds, prob, rwork, data, work)
 
 
 @njit(cache=True)
@@ -949,7 +956,7 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                 for j in range(n_stages):
                     acc += K[j, i] * B[j]
                 y_new[i] = y[i] + h * acc
-            code, idx = free_system(t + h, y_new, f_new, True, bounds, prob, rwork, data, work)
+            code, idx = free_system(t + h, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
             nfev += 1
             if code != OK:
                 return code, t + h, nfev, n_out, idx

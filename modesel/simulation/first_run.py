@@ -8,10 +8,12 @@ functions it calls) and the integration loop (`multibody.kernel`: the
 right-hand side, DOP853, the reaction loads), which needs only the *type* of
 the loads, a first-class function of `kernel.LOADS_SIG`. `compile_in_parallel`
 compiles the first in a child process while this process compiles the second
-against a stand-in of that type (`_no_loads`, which adds nothing); both land
-in numba's cache, from which the simulation then loads them. On the 2-core
-machine this takes the first run of `steady_08` from about 57 s to about 40 s
-of wall time (README, Benchmarks).
+against a stand-in of that type (`_no_loads`, which adds nothing); the child
+then compiles the reaction loads over the output times on a small stand-in
+problem (the kernel's argument types do not depend on the model), while this
+process compiles DOP853. All land in numba's cache, from which the simulation
+then loads them. On the 2-core machine this takes the first run of `steady_08`
+from about 57 s to about 31 s of wall time (README, Benchmarks).
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).
@@ -76,12 +78,13 @@ def die_with_parent_signal() -> None:
 
 
 def compile_in_parallel(built) -> bool:
-    """Compile the effects' loads in a child process and the kernel here, at
-    once, when the loads have no numba cache yet (module doc). Returns True
-    when it ran. The child is waited for, and killed if this process is
-    interrupted, so no process outlives the call; if it fails, the simulation
-    compiles the loads itself, as without this step. Cheap when there is
-    nothing to do (no compiled loads, or their module already imported)."""
+    """Compile the effects' loads and then the kernel's reaction loads in a
+    child process and the kernel's right-hand side and DOP853 here, at once,
+    when the loads have no numba cache yet (module doc). Returns True when it
+    ran. The child is waited for, and killed if this process is interrupted,
+    so no process outlives the call; if it fails, the simulation compiles
+    what it lacks itself, as without this step. Cheap when there is nothing
+    to do (no compiled loads, or their module already imported)."""
     acting = getattr(built, "acting", None)
     if not acting or not all(hasattr(e, "compile_loads") for e in acting):
         return False
@@ -90,7 +93,8 @@ def compile_in_parallel(built) -> bool:
     package_root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
                                                         if p))
-    child = subprocess.Popen([sys.executable, "-c", f"import {LOADS_MODULE}"], env=env,
+    code = f"import {LOADS_MODULE}; from {__name__} import compile_reactions; compile_reactions()"
+    child = subprocess.Popen([sys.executable, "-c", code], env=env,
                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
     try:
@@ -104,13 +108,12 @@ def compile_in_parallel(built) -> bool:
 
 
 def _compile_kernel(built) -> None:
-    """Compile (or load) the kernel's loops for a problem with loads, on
-    `built`'s equations with the stand-in loads: the right-hand side, DOP853
-    and the reaction loads, with the argument types of the simulation's own."""
+    """Compile (or load) the kernel's right-hand side and DOP853 for
+    `built`'s equations with the stand-in loads: the argument types of the
+    simulation's own."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.multibody.dop853_tableau import TABLE
-    stand_in = (_no_loads(), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
-    rhs = CompiledRHS(built.eq, built.linear, loads=stand_in)
+    rhs = CompiledRHS(built.eq, built.linear, loads=_stand_in_loads())
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     rhs(0.0, q0, qd0)
     if rhs.compilable:
@@ -118,10 +121,32 @@ def _compile_kernel(built) -> None:
         x0 = np.concatenate([q0, qd0])
         rhs.dop853(x0, np.array([0.0, 1e-4]), 1e-4, 1e-6, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf),
                    TABLE)
-    rows = list(built.model.reactions.values())[:1]
-    if rows:
-        full = CompiledRHS(built.eq, built.linear, all_rows=True, loads=stand_in)
-        full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], rows)
+
+
+#: the stand-in problem `compile_reactions` compiles on: the kernel's argument
+#: types do not depend on the model (tests/test_fast_start.py checks it)
+STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {"tower_fa": {"family": "elastodyn", "count": 1}},
+                  "dofs": {"free": ["GeAz"]}, "initial": {"RotSpeed": 9.0}, "effects": {"gravity": True}}
+
+
+def compile_reactions() -> None:
+    """Compile (or load) the kernel's reaction loads (`CompiledRHS.outputs`)
+    for problems with loads, on the small `STAND_IN_SCENE` with the stand-in
+    loads (`compile_in_parallel`'s child, after the loads: by then this
+    process usually finds the right-hand side the parent compiled in numba's
+    cache, and compiles only the loop over the output times)."""
+    from modesel.multibody.compiled import CompiledRHS
+    from modesel.simulation.assembly import build
+    from modesel.simulation.scene import scene_from_dict
+    built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
+    full = CompiledRHS(built.eq, built.linear, all_rows=True, loads=_stand_in_loads())
+    q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
+    full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])
+
+
+def _stand_in_loads():
+    """Loads of the kernel's loads type that add nothing (`_no_loads`)."""
+    return (_no_loads(), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
 
 
 @functools.cache
