@@ -202,13 +202,28 @@ def test_ctrl_c_while_numba_runs_a_ctypes_callback_still_stops_the_command(tmp_p
     assert not (tmp_path / "out.csv").exists()
 
 
+def test_cold_cache_is_told_apart_for_modules_of_one_name(tmp_path):
+    """`first_run.is_cold` finds a module's numba index in the folder numba
+    names after that module's source folder: once `multibody/compiled.py`
+    (its `no_loads` cfunc, compiled on import) is cached, the loads'
+    `effects/compiled.py` is still cold (they were confused before, and a
+    first run then compiled everything in one process)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    code = ("import json, modesel.multibody.compiled\n"
+            "from modesel.simulation.first_run import LOADS_MODULE, is_cold\n"
+            "print(json.dumps([is_cold('modesel.multibody.compiled'), is_cold(LOADS_MODULE)]))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == [False, True]
+
+
 def test_kernel_argument_types_do_not_depend_on_the_model():
     """The first run's child compiles the reaction loads on a small stand-in
     problem (`first_run.STAND_IN_SCENE`) for the simulation's own: numba's
     types of the kernel's arguments (problem, work arrays, packed equations)
-    are the same for that scene, an OpenFAST case with BEM and a tower-only
-    scene, with the stand-in loads and without loads, so the compiled loop
-    serves them all."""
+    are the same for that scene, an OpenFAST case with BEM (its packed loads)
+    and a tower-only scene (`NO_LOADS`), so the compiled loops serve them all."""
     from numba import typeof
 
     from modesel.multibody.compiled import CompiledRHS
@@ -218,12 +233,12 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
     scenes = [scene_from_dict(first_run.STAND_IN_SCENE), load_scene(str(STEADY_08)),
               load_scene(str(ROOT / "studies" / "scenes" / "paper_3dof_land.toml"))]
     builts = [build(s, reactions=True) for s in scenes]
-    for loads in (first_run._stand_in_loads(), None):
-        kinds = set()
-        for b in builts:
-            rhs = CompiledRHS(b.eq, b.linear, all_rows=True, loads=loads)
+    kinds = set()
+    for b in builts:
+        for rhs in (b.rhs(all_rows=True), CompiledRHS(b.eq, b.linear, all_rows=True)):
             kinds.add(typeof((rhs.prob, rhs.rwork, rhs.packed.data, rhs.packed.work)))
-        assert len(kinds) == 1
+    assert builts[1].rhs().has_loads and not builts[2].rhs().has_loads
+    assert len(kinds) == 1
 
 
 @pytest.mark.slow

@@ -8,8 +8,22 @@ and of scipy's methods through `accelerations`.
 from __future__ import annotations
 
 import numpy as np
+from numba import cfunc
 
 from modesel.multibody import implicit, kernel
+
+
+@cfunc(kernel.LOADS_SIG, cache=True)
+def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
+    """Loads that add nothing (`kernel.LOADS_SIG`): a problem without effects
+    runs the kernel's loops with these, so that scenes with and without
+    effects share one compiled specialisation of each loop (one first-run
+    compile, one cache entry)."""
+    return 0
+
+
+#: `CompiledRHS(loads=None)`: the kernel's loads argument of a problem without effects
+NO_LOADS = (no_loads, np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
 
 
 class CompiledRHS:
@@ -28,10 +42,10 @@ class CompiledRHS:
     `reactions` (all_rows) gives the reaction loads of fixed coordinates at
     many output times in one compiled call.
 
-    loads: None, or (numba cfunc of `kernel.LOADS_SIG`, ints, floats, state):
-    the effects' loads evaluated inside the kernel at every right-hand side
-    (`modesel.model.effects.compiled` packs them); state is modified in
-    place (scratch and latched switches). channels: {output channel: (state
+    loads: None (no effects: `NO_LOADS` runs in their place), or (numba cfunc
+    of `kernel.LOADS_SIG`, ints, floats, state): the effects' loads evaluated
+    inside the kernel at every right-hand side (`modesel.model.effects.compiled`
+    packs them); state is modified in place (scratch and latched switches). channels: {output channel: (state
     index, scale)}: the effects' output channels, state[index] * scale after
     an evaluation with state[channel_flag] set (`outputs`)."""
 
@@ -48,20 +62,17 @@ class CompiledRHS:
         self.compilable = poly is not None
         pcoef = np.zeros((len(eq.presc_idx), 3)) if poly is None else poly
         n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
+        #: whether effects' loads act inside the kernel
+        self.has_loads = loads is not None
         self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
                      eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
                      np.zeros((n_nodes, 6)), np.zeros(eq.n_bodies, np.int64),
-                     _loads_tuple(loads))
+                     _loads_tuple(NO_LOADS if loads is None else loads))
         self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
         self.n_free = nf
         self._x = np.zeros(2 * nf)
         self._out = np.zeros(2 * nf)
         self._no_bounds = np.full(nf, np.inf)
-
-    @property
-    def has_loads(self) -> bool:
-        """Whether effects' loads act inside the kernel."""
-        return self.prob[9] is not None
 
     def _problem_at(self, t):
         """(time passed to the kernel, prob): prescribed callables are
@@ -196,9 +207,7 @@ class CompiledRHS:
 
 
 def _loads_tuple(loads):
-    """(cfunc, ints, floats, state) with the kernel's dtypes, or None."""
-    if loads is None:
-        return None
+    """(cfunc, ints, floats, state) with the kernel's dtypes."""
     fn, ints, floats, state = loads
     return (fn, np.ascontiguousarray(ints, np.int64), np.ascontiguousarray(floats, float),
             np.ascontiguousarray(state, float))

@@ -1,26 +1,27 @@
 """The first simulation after install (or after a source change), when numba
 compiles the engine into its on-disk cache.
 
-A scene with compiled loads (BEM aerodynamics, tower drag, generator) has two
-independent halves to compile: the effects' loads (`model.effects.compiled`:
-the cfunc `effect_loads` and the BEM, kinematics and load-distribution
-functions it calls) and the integration loop (`multibody.kernel`: the
-right-hand side, DOP853, the reaction loads), which needs only the *type* of
-the loads, a first-class function of `kernel.LOADS_SIG`. `compile_in_parallel`
-compiles the first in a child process while this process compiles the second
-against a stand-in of that type (`_no_loads`, which adds nothing); the child
-then compiles the reaction loads over the output times on a small stand-in
-problem (the kernel's argument types do not depend on the model), while this
-process compiles DOP853. All land in numba's cache, from which the simulation
-then loads them. On the 2-core machine this takes the first run of `steady_08`
-from about 57 s to about 31 s of wall time (README, Benchmarks).
+The engine has two independent halves to compile: the effects' loads
+(`model.effects.compiled`: the cfunc `effect_loads` and the BEM, kinematics
+and load-distribution functions it calls) and the integration loop
+(`multibody.kernel`: the right-hand side, DOP853, the reaction loads), which
+needs only the *type* of the loads, a first-class function of
+`kernel.LOADS_SIG`; a scene without effects runs the same loops with loads
+that add nothing (`multibody.compiled.NO_LOADS`), so one compile serves every
+scene. `compile_in_parallel` compiles the loads in a child process while this
+process compiles the right-hand side against `NO_LOADS`; the child then
+compiles the reaction loads over the output times on a small stand-in problem
+(the kernel's argument types do not depend on the model), while this process
+compiles DOP853. All land in numba's cache, from which the simulation then
+loads them. On the 2-core machine this takes the first run of `steady_08` from
+about 57 s to about 30 s of wall time (README, Benchmarks).
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).
 """
 from __future__ import annotations
 
-import functools
+import hashlib
 import importlib.util
 import os
 import subprocess
@@ -35,24 +36,26 @@ LOADS_MODULE = "modesel.model.effects.compiled"
 
 def index_files(module: str) -> list:
     """numba cache index files (*.nbi) of `module` in the places numba looks:
-    NUMBA_CACHE_DIR, __pycache__ beside the source, the user-wide cache."""
+    NUMBA_CACHE_DIR, else __pycache__ beside the source, then the user-wide
+    cache. Under a cache folder numba names each source folder
+    `<name>_<sha1 of its absolute path>` (numba.core.caching's cache
+    locators), so that modules of one name in two folders (the loads'
+    `effects/compiled.py`, `multibody/compiled.py`) are told apart."""
     spec = importlib.util.find_spec(module)
     if spec is None or not spec.origin:
         return []
-    source = Path(spec.origin)
-    stem = source.stem
+    source = Path(os.path.abspath(spec.origin))
+    folder = str(source.parent)
+    subpath = f"{source.parent.name}_{hashlib.sha1(folder.encode()).hexdigest()}"
     if os.environ.get("NUMBA_CACHE_DIR"):      # numba then uses this folder only
-        root = Path(os.environ["NUMBA_CACHE_DIR"])
-        places = [root, *root.glob("**/" + source.parent.name)]
+        places = [Path(os.environ["NUMBA_CACHE_DIR"]) / subpath]
     else:
-        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba"]
-    found = []
+        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba" / subpath]
     for place in places:
-        if place.is_dir():
-            found += list(place.glob(f"{stem}.*.nbi")) or list(place.glob(f"**/{stem}.*.nbi"))
+        found = list(place.glob(f"{source.stem}.*.nbi")) if place.is_dir() else []
         if found:
-            break
-    return found
+            return found
+    return []
 
 
 def is_cold(module: str) -> bool:
@@ -80,14 +83,15 @@ def die_with_parent_signal() -> None:
 def compile_in_parallel(built) -> bool:
     """Compile the effects' loads and then the kernel's reaction loads in a
     child process and the kernel's right-hand side and DOP853 here, at once,
-    when the loads have no numba cache yet (module doc). Returns True when it
-    ran. The child is waited for, and killed if this process is interrupted,
-    so no process outlives the call; if it fails, the simulation compiles
-    what it lacks itself, as without this step. Cheap when there is nothing
-    to do (no compiled loads, or their module already imported)."""
+    when the loads have no numba cache yet (module doc), also for a scene
+    without effects (a later one with effects finds them compiled). Returns
+    True when it ran. The child is waited for, and killed if this process is
+    interrupted, so no process outlives the call; if it fails, the simulation
+    compiles what it lacks itself, as without this step. Cheap when there is
+    nothing to do (loads in Python, or the loads' module already imported)."""
     acting = getattr(built, "acting", None)
-    if not acting or not all(hasattr(e, "compile_loads") for e in acting):
-        return False
+    if acting is None or not all(hasattr(e, "compile_loads") for e in acting):
+        return False                # loads in Python: scipy's integrators, not the kernel's loops
     if LOADS_MODULE in sys.modules or not is_cold(LOADS_MODULE):
         return False
     package_root = str(Path(__file__).resolve().parents[2])
@@ -109,11 +113,11 @@ def compile_in_parallel(built) -> bool:
 
 def _compile_kernel(built) -> None:
     """Compile (or load) the kernel's right-hand side and DOP853 for
-    `built`'s equations with the stand-in loads: the argument types of the
-    simulation's own."""
+    `built`'s equations with `NO_LOADS`: the argument types of the
+    simulation's own, with or without effects."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.multibody.dop853_tableau import TABLE
-    rhs = CompiledRHS(built.eq, built.linear, loads=_stand_in_loads())
+    rhs = CompiledRHS(built.eq, built.linear)          # NO_LOADS: the loads' type
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     rhs(0.0, q0, qd0)
     if rhs.compilable:
@@ -131,32 +135,14 @@ STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {"tower_fa": {"family": "elasto
 
 def compile_reactions() -> None:
     """Compile (or load) the kernel's reaction loads (`CompiledRHS.outputs`)
-    for problems with loads, on the small `STAND_IN_SCENE` with the stand-in
-    loads (`compile_in_parallel`'s child, after the loads: by then this
-    process usually finds the right-hand side the parent compiled in numba's
-    cache, and compiles only the loop over the output times)."""
+    on the small `STAND_IN_SCENE` (`compile_in_parallel`'s child, after the
+    loads: by then this process usually finds the right-hand side the parent
+    compiled in numba's cache, and compiles only the loop over the output
+    times)."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.simulation.assembly import build
     from modesel.simulation.scene import scene_from_dict
     built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
-    full = CompiledRHS(built.eq, built.linear, all_rows=True, loads=_stand_in_loads())
+    full = CompiledRHS(built.eq, built.linear, all_rows=True)
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])
-
-
-def _stand_in_loads():
-    """Loads of the kernel's loads type that add nothing (`_no_loads`)."""
-    return (_no_loads(), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
-
-
-@functools.cache
-def _no_loads():
-    """A cfunc of `kernel.LOADS_SIG` that adds no load (its type is all the kernel needs)."""
-    from numba import cfunc
-
-    from modesel.multibody.kernel import LOADS_SIG
-
-    @cfunc(LOADS_SIG)
-    def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
-        return 0
-    return no_loads
