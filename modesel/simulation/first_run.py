@@ -99,27 +99,39 @@ def compile_in_parallel(built) -> bool:
                                                         if p))
     code = f"import {LOADS_MODULE}; from {__name__} import compile_reactions; compile_reactions()"
     child = subprocess.Popen([sys.executable, "-c", code], env=env,
-                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
+
+    def right_hand_side_cached():
+        """Tell the child (a line on its stdin, then end of file)."""
+        try:
+            child.stdin.write(b"\n")
+            child.stdin.close()
+        except OSError:         # the child has ended: the simulation compiles what it lacks
+            pass
     try:
-        _compile_kernel(built)
+        _compile_kernel(built, right_hand_side_cached)
         child.wait()
     finally:
+        if not child.stdin.closed:
+            right_hand_side_cached()
         if child.poll() is None:
             child.kill()
             child.wait()
     return True
 
 
-def _compile_kernel(built) -> None:
+def _compile_kernel(built, rhs_done=lambda: None) -> None:
     """Compile (or load) the kernel's right-hand side and DOP853 for
     `built`'s equations with `NO_LOADS`: the argument types of the
-    simulation's own, with or without effects."""
+    simulation's own, with or without effects; `rhs_done()` once the
+    right-hand side is compiled (and in numba's cache)."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.multibody.dop853_tableau import TABLE
     rhs = CompiledRHS(built.eq, built.linear)          # NO_LOADS: the loads' type
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     rhs(0.0, q0, qd0)
+    rhs_done()
     if rhs.compilable:
         n = len(q0)
         x0 = np.concatenate([q0, qd0])
@@ -136,13 +148,15 @@ STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {"tower_fa": {"family": "elasto
 def compile_reactions() -> None:
     """Compile (or load) the kernel's reaction loads (`CompiledRHS.outputs`)
     on the small `STAND_IN_SCENE` (`compile_in_parallel`'s child, after the
-    loads: by then this process usually finds the right-hand side the parent
-    compiled in numba's cache, and compiles only the loop over the output
-    times)."""
+    loads). It first waits for a line or the end of file on stdin: the parent
+    writes it once the right-hand side, which the reaction loads call, is in
+    numba's cache, so that this process loads it from there instead of
+    compiling it a second time."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.simulation.assembly import build
     from modesel.simulation.scene import scene_from_dict
     built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
+    sys.stdin.readline()
     full = CompiledRHS(built.eq, built.linear, all_rows=True)
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])

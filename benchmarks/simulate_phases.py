@@ -1,0 +1,71 @@
+"""Where one `modesel simulate` spends its time, phase by phase, in a fresh
+process (numba's cache warm): imports, loading the scene, each step of
+`simulate` (build, linearisation, eigenvalues, stability check, integration,
+channels) and writing the CSV as the command does.
+
+Run: python3 benchmarks/simulate_phases.py [--tmax 20] [SCENE]
+     (default SCENE: the OpenFAST case steady_08 with BEM)
+
+The steps are timed by wrapping the functions `simulation.transient` calls;
+"simulate" is the whole call, so it also holds what no step names (numba
+loading the compiled functions from its cache on their first call).
+"""
+import time
+
+T0 = time.perf_counter()
+import argparse  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from modesel.files import columns_csv_text  # noqa: E402
+from modesel.simulation import transient  # noqa: E402
+from modesel.simulation.api import load_scene, simulate  # noqa: E402
+
+T1 = time.perf_counter()
+STEPS = ("build", "linearize", "eigenvalues", "check_static_stability", "integrate", "channels")
+spent = {}
+
+
+def timed(name):
+    f = getattr(transient, name)
+
+    def wrapper(*args, **kwargs):
+        t = time.perf_counter()
+        try:
+            return f(*args, **kwargs)
+        finally:
+            spent[name] = spent.get(name, 0.0) + time.perf_counter() - t
+    return wrapper
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", nargs="?", default=str(REPO / "studies/data/openfast/steady_08/steady_08.fst"))
+    p.add_argument("--tmax", type=float, default=20.0, help="simulated time [s]")
+    a = p.parse_args()
+    for name in STEPS:
+        setattr(transient, name, timed(name))
+    t2 = time.perf_counter()
+    scene = load_scene(a.scene)
+    t3 = time.perf_counter()
+    result = simulate(scene, tmax=a.tmax)
+    t4 = time.perf_counter()
+    units = dict(result.units, Time="s")
+    columns_csv_text(result.columns, {c: units.get(c, "?") for c in result.columns})
+    t5 = time.perf_counter()
+    print(f"{Path(a.scene).name}, {a.tmax:g} s simulated ({result.n_dofs} DOFs, {result.method}, "
+          f"{result.n_rhs} right-hand sides)")
+    print(f"  imports      {T1 - T0:6.3f} s")
+    print(f"  load_scene   {t3 - t2:6.3f} s")
+    print(f"  simulate     {t4 - t3:6.3f} s, of which:")
+    for name in STEPS:
+        print(f"    {name:<24} {spent.get(name, 0.0):6.3f} s")
+    print(f"  CSV text     {t5 - t4:6.3f} s")
+    print(f"  total        {t5 - T0:6.3f} s (this process, after the interpreter's own start)")
+
+
+if __name__ == "__main__":
+    main()
