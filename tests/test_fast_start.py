@@ -204,18 +204,29 @@ def test_ctrl_c_while_numba_runs_a_ctypes_callback_still_stops_the_command(tmp_p
 
 def test_cold_cache_is_told_apart_for_modules_of_one_name(tmp_path):
     """`first_run.is_cold` finds a module's numba index in the folder numba
-    names after that module's source folder: once `multibody/compiled.py`
-    (its `no_loads` cfunc, compiled on import) is cached, the loads'
-    `effects/compiled.py` is still cold (they were confused before, and a
-    first run then compiled everything in one process)."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"),
-               PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    code = ("import json, modesel.multibody.compiled\n"
-            "from modesel.simulation.first_run import LOADS_MODULE, is_cold\n"
-            "print(json.dumps([is_cold('modesel.multibody.compiled'), is_cold(LOADS_MODULE)]))\n")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
-    assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout.strip().splitlines()[-1]) == [False, True]
+    names after that module's source folder: with `pkg_a/compiled.py` cached,
+    `pkg_b/compiled.py` is still cold, under NUMBA_CACHE_DIR and beside the
+    sources (modesel has `effects/compiled.py`, the loads the first run
+    compiles in a child, and `multibody/compiled.py`; the two were confused
+    once the latter held a cfunc, and a first run compiled all in one
+    process)."""
+    for pkg in ("pkg_a", "pkg_b"):
+        (tmp_path / pkg).mkdir()
+        (tmp_path / pkg / "__init__.py").write_text("")
+        (tmp_path / pkg / "compiled.py").write_text(
+            "from numba import njit\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n")
+    code = ("import json, pkg_a.compiled\n"
+            "pkg_a.compiled.f(1)\n"
+            "from modesel.simulation.first_run import is_cold\n"
+            "print(json.dumps([is_cold('pkg_a.compiled'), is_cold('pkg_b.compiled')]))\n")
+    path = os.pathsep.join([str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH", "")])
+    for cache in (str(tmp_path / "numba"), None):
+        env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+        env.update(PYTHONPATH=path, **({"NUMBA_CACHE_DIR": cache} if cache else {}))
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                              timeout=600, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        assert json.loads(done.stdout.strip().splitlines()[-1]) == [False, True], cache
 
 
 def test_kernel_argument_types_do_not_depend_on_the_model():
@@ -223,7 +234,7 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
     problem (`first_run.STAND_IN_SCENE`) for the simulation's own: numba's
     types of the kernel's arguments (problem, work arrays, packed equations)
     are the same for that scene, an OpenFAST case with BEM (its packed loads)
-    and a tower-only scene (`NO_LOADS`), so the compiled loops serve them all."""
+    and a tower-only scene (`no_loads.NO_LOADS`), so the compiled loops serve them all."""
     from numba import typeof
 
     from modesel.multibody.compiled import CompiledRHS

@@ -8,22 +8,8 @@ and of scipy's methods through `accelerations`.
 from __future__ import annotations
 
 import numpy as np
-from numba import cfunc
 
 from modesel.multibody import implicit, kernel
-
-
-@cfunc(kernel.LOADS_SIG, cache=True)
-def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
-    """Loads that add nothing (`kernel.LOADS_SIG`): a problem without effects
-    runs the kernel's loops with these, so that scenes with and without
-    effects share one compiled specialisation of each loop (one first-run
-    compile, one cache entry)."""
-    return 0
-
-
-#: `CompiledRHS(loads=None)`: the kernel's loads argument of a problem without effects
-NO_LOADS = (no_loads, np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
 
 
 class CompiledRHS:
@@ -42,7 +28,7 @@ class CompiledRHS:
     `reactions` (all_rows) gives the reaction loads of fixed coordinates at
     many output times in one compiled call.
 
-    loads: None (no effects: `NO_LOADS` runs in their place), or (numba cfunc
+    loads: None (no effects: `no_loads.NO_LOADS` runs in their place), or (numba cfunc
     of `kernel.LOADS_SIG`, ints, floats, state): the effects' loads evaluated
     inside the kernel at every right-hand side (`modesel.model.effects.compiled`
     packs them); state is modified in place (scratch and latched switches). channels: {output channel: (state
@@ -67,7 +53,7 @@ class CompiledRHS:
         self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
                      eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
                      np.zeros((n_nodes, 6)), np.zeros(eq.n_bodies, np.int64),
-                     _loads_tuple(NO_LOADS if loads is None else loads))
+                     _loads_tuple(_no_loads() if loads is None else loads))
         self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
         self.n_free = nf
         self._x = np.zeros(2 * nf)
@@ -204,6 +190,13 @@ class CompiledRHS:
             float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob, self.rwork, p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out], {"n_jac": int(n_jac), "n_lu": int(n_lu),
                                                       "n_steps": int(n_steps)}
+
+
+def _no_loads():
+    """`no_loads.NO_LOADS`, imported on first use (loading its cfunc from
+    numba's cache costs about 0.1 s, which a scene with effects never needs)."""
+    from modesel.multibody.no_loads import NO_LOADS
+    return NO_LOADS
 
 
 def _loads_tuple(loads):

@@ -7,7 +7,7 @@ and load-distribution functions it calls) and the integration loop
 (`multibody.kernel`: the right-hand side, DOP853, the reaction loads), which
 needs only the *type* of the loads, a first-class function of
 `kernel.LOADS_SIG`; a scene without effects runs the same loops with loads
-that add nothing (`multibody.compiled.NO_LOADS`), so one compile serves every
+that add nothing (`multibody.no_loads`), so one compile serves every
 scene. `compile_in_parallel` compiles the loads in a child process while this
 process compiles the right-hand side against `NO_LOADS`; the child then
 compiles the reaction loads over the output times on a small stand-in problem
