@@ -28,17 +28,21 @@ class CompiledRHS:
     `reactions` (all_rows) gives the reaction loads of fixed coordinates at
     many output times in one compiled call.
 
-    loads: None (no effects: `no_loads.NO_LOADS` runs in their place), or (numba cfunc
-    of `kernel.LOADS_SIG`, ints, floats, state): the effects' loads evaluated
-    inside the kernel at every right-hand side (`modesel.model.effects.compiled`
-    packs them); state is modified in place (scratch and latched switches). channels: {output channel: (state
-    index, scale)}: the effects' output channels, state[index] * scale after
-    an evaluation with state[channel_flag] set (`outputs`)."""
+    loads: None (no effects: `no_loads.NO_LOADS` runs in their place, so
+    that one compiled specialisation of the kernel's loops serves every
+    problem), or (numba cfunc of `kernel.LOADS_SIG`, ints, floats, state):
+    the effects' loads evaluated inside the kernel at every right-hand side
+    (`modesel.model.effects.compiled` packs them); state is modified in place
+    (scratch and latched switches). channels: {output channel: (state index,
+    scale)}: the effects' output channels, state[index] * scale after an
+    evaluation with state[channel_flag] set (`outputs`)."""
 
     def __init__(self, eq, linear=(), *, all_rows=False, loads=None, channels=None, channel_flag=-1):
         self.eq = eq
         self.channels = dict(channels or {})
         self.channel_flag = int(channel_flag)
+        if self.channels and (loads is None or self.channel_flag < 0):
+            raise ValueError("output channels need loads and the index of their channel flag")
         self.packed = eq.packed_full if all_rows else eq.packed_free
         n, nf = eq.n_all, len(eq.free_idx)
         lin = list(linear)

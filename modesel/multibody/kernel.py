@@ -679,7 +679,9 @@ def lu_solve(A, x):
 
 def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
     """assemble, after the effects' loads when `loads` is not None (numba
-    specialises on it, `_loads_and_assemble_impl`); returns a status code."""
+    specialises on it, `_loads_and_assemble_impl`); returns a status code.
+    `compiled.CompiledRHS` always passes loads (`no_loads` for a problem
+    without effects), so that only the loaded specialisation is compiled."""
 
 
 @overload(_loads_and_assemble, jit_options={"cache": True})
@@ -706,7 +708,7 @@ def _loads_and_assemble_impl(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, 
 #: the `solve` argument of `free_system` in compiled callers: numba types a
 #: literal True as Literal[bool](True) and would compile free_system a second
 #: time beside the plain-bool version Python calls, re-optimising all it links
-#: (about 8 s of a first run); a numpy bool is typed plain bool
+#: (about 4 s of a first run's compile time); a numpy bool is typed plain bool
 SOLVE = np.bool_(True)
 
 
