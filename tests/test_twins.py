@@ -326,6 +326,28 @@ def rhs_pairs(built, rng, what, n=3, speeds=(0.3, 1.6)):
     return out
 
 
+#: the scenes of the compiled-loads twins: (label, effects, modes or None (turbine_with's),
+#: states per check, rotor speeds drawn [rad/s]): every load effect and generator law
+LOAD_SCENES = [
+    ("aero+drag+VS", {"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
+                      "generator": {"mode": "variable_speed"}}, None, 3, (0.3, 1.6)),
+    ("series wind, skew, rigid edge",
+     {"wind": {"time_series": [[0.0, 6.0], [10.0, 14.0], [20.0, 9.0]], "direction_deg": 8.0},
+      "aero": {"skew": True}, "tower_drag": True, "generator": {"mode": "constant", "torque": 3.0e4}},
+     {"tower_fa": {"family": "elastodyn", "count": 1}, "blade_flap": {"family": "elastodyn", "count": 1}},
+     3, (0.3, 1.6)),
+    ("ElastoDyn blade nodes (aero's generalised-force correction)",
+     {"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
+      "generator": {"mode": "variable_speed"}}, None, 3, (0.3, 1.6)),
+    ("ServoDyn VSContrl 1", {"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
+                                           "rated_torque": 43093.55, "region2_k": 0.0255764,
+                                           "slip_percent": 10.0, "on_speed_rpm": 900.0}}, None, 6, (0.5, 1.5)),
+    ("ServoDyn induction", {"generator": {"mode": "induction", "sync_speed_rpm": 1200.0, "rated_torque": 4.0e4,
+                                          "slip_percent": 1.0, "pullout_ratio": 2.0, "off_time": 20.0,
+                                          "off_when_no_power": True}}, None, 6, (1.1, 1.4)),
+]
+
+
 @twin("compiled_loads")
 def compiled_loads(rng):
     """The whole right-hand side with every load effect: Built.rhs (loads packed into the
@@ -333,28 +355,8 @@ def compiled_loads(rng):
     (numpy reference and kernel): wind (steady with shear; time series; an InflowWind
     table), BEM aero (ElastoDyn blade nodes too), tower drag, generator laws (NREL 5-MW, constant, ServoDyn
     simple variable-speed and induction with their switches)."""
-    out = rhs_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
-                                  "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
-    out += rhs_pairs(turbine_with({"wind": {"time_series": [[0.0, 6.0], [10.0, 14.0], [20.0, 9.0]],
-                                            "direction_deg": 8.0},
-                                   "aero": {"skew": True}, "tower_drag": True,
-                                   "generator": {"mode": "constant", "torque": 3.0e4}},
-                                  modes={"tower_fa": {"family": "elastodyn", "count": 1},
-                                         "blade_flap": {"family": "elastodyn", "count": 1}}),
-                     rng, "series wind, skew, rigid edge")
-    out += rhs_pairs(turbine_with({"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
-                                   "generator": {"mode": "variable_speed"}}),
-                     rng, "ElastoDyn blade nodes (aero's generalised-force correction)")
-    out += rhs_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
-                                                 "rated_torque": 43093.55, "region2_k": 0.0255764,
-                                                 "slip_percent": 10.0, "on_speed_rpm": 900.0}}),
-                     rng, "ServoDyn VSContrl 1", n=6, speeds=(0.5, 1.5))
-    out += rhs_pairs(turbine_with({"generator": {"mode": "induction", "sync_speed_rpm": 1200.0,
-                                                 "rated_torque": 4.0e4, "slip_percent": 1.0,
-                                                 "pullout_ratio": 2.0, "off_time": 20.0,
-                                                 "off_when_no_power": True}}),
-                     rng, "ServoDyn induction", n=6, speeds=(1.1, 1.4))
-    return out
+    return [pair for what, effects, modes, n, speeds in LOAD_SCENES
+            for pair in rhs_pairs(turbine_with(effects, modes=modes), rng, what, n=n, speeds=speeds)]
 
 
 def channel_pairs(built, rng, what, n=6, speeds=(0.3, 1.6)):
@@ -386,27 +388,13 @@ def compiled_channels(rng):
     compiled pass over the output times, CompiledRHS.outputs (the effects write them
     inside the kernel) / the effects' Python __call__ and channels at each time
     (model/outputs.py python_effect_channels), ServoDyn's switches latching alike."""
-    out = channel_pairs(turbine_with({"wind": {"speed": 8.0, "shear": 0.2}, "aero": True, "tower_drag": True,
-                                      "generator": {"mode": "variable_speed"}}), rng, "aero+drag+VS")
-    out += channel_pairs(turbine_with({"wind": {"time_series": [[0.0, 6.0], [10.0, 14.0], [20.0, 9.0]],
-                                                "direction_deg": 8.0},
-                                       "aero": {"skew": True}, "generator": {"mode": "constant", "torque": 3.0e4}},
-                                      modes={"tower_fa": {"family": "elastodyn", "count": 1},
-                                             "blade_flap": {"family": "elastodyn", "count": 1}}),
-                         rng, "series wind, skew, rigid edge")
-    out += channel_pairs(turbine_with({"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
-                                       "generator": {"mode": "variable_speed"}}),
-                         rng, "ElastoDyn blade nodes")
-    out += channel_pairs(turbine_with({"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
-                                                     "rated_torque": 43093.55, "region2_k": 0.0255764,
-                                                     "slip_percent": 10.0, "on_speed_rpm": 900.0}}),
-                         rng, "ServoDyn VSContrl 1", n=12, speeds=(0.5, 1.5))
-    out += channel_pairs(turbine_with({"generator": {"mode": "induction", "sync_speed_rpm": 1200.0,
-                                                     "rated_torque": 4.0e4, "slip_percent": 1.0,
-                                                     "pullout_ratio": 2.0, "off_time": 20.0,
-                                                     "off_when_no_power": True}}),
-                         rng, "ServoDyn induction", n=12, speeds=(1.3, 1.4))    # above sync: on until 20 s
-    return out
+    # twice the states, in increasing time; the induction generator above its
+    # synchronous speed, so that it produces until off_time (below it, its
+    # first negative power switches it off for good and every channel is 0)
+    speeds_of = {"ServoDyn induction": (1.3, 1.4)}
+    return [pair for what, effects, modes, n, speeds in LOAD_SCENES
+            for pair in channel_pairs(turbine_with(effects, modes=modes), rng, what, n=2 * n,
+                                      speeds=speeds_of.get(what, speeds))]
 
 
 # ----------------------------------------------------------------------------- the test
