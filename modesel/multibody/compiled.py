@@ -128,7 +128,7 @@ class CompiledRHS:
         idx = np.array([self.eq.index[r] for r in rows], np.int64)
         slots = np.array([self.channels[c][0] for c in channels], np.int64)
         out = np.zeros((len(t), len(idx) + len(slots)))
-        state = self.prob[9][3] if self.has_loads else None
+        state = self.prob[9][3]
         if len(slots):
             state[self.channel_flag] = 1.0
         try:

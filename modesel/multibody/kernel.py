@@ -33,7 +33,6 @@ import warnings
 
 import numpy as np
 from numba import njit, types
-from numba.extending import overload
 from numba.core.errors import NumbaExperimentalFeatureWarning
 
 # the loads function is a first-class function argument (one compiled loop for
@@ -65,10 +64,9 @@ N_FLOAT = 40
 # parameters; state: its scratch and latched state. Status OK or NON_FINITE_ACC.
 # It must be a numba cfunc (typed as a first-class function, so the loop that
 # calls it is compiled once for every scene and cached); a problem without
-# loads passes None instead and gets its own specialisation without the call.
+# loads passes `no_loads.no_loads`, which adds none.
 _F1, _F2, _F3, _I1 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1]
 LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1)
-LOADS_TYPE = types.FunctionType(LOADS_SIG)
 
 
 # ------------------------------------------------------------------ small helpers
@@ -677,32 +675,21 @@ def lu_solve(A, x):
     return True
 
 
+@njit(cache=True)
 def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
-    """assemble, after the effects' loads when `loads` is not None (numba
-    specialises on it, `_loads_and_assemble_impl`); returns a status code.
-    `compiled.CompiledRHS` always passes loads (`no_loads` for a problem
-    without effects), so that only the loaded specialisation is compiled."""
-
-
-@overload(_loads_and_assemble, jit_options={"cache": True})
-def _loads_and_assemble_impl(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
-    if isinstance(loads, types.NoneType):
-        def plain(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
-            assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
-            return OK
-        return plain
-
-    def loaded(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
-        fn, l_int, l_flt, l_state = loads
-        kinematics(q_all, qd_all, data, work)
-        fnodes[:, :] = 0.0
-        fflag[:] = 0
-        code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state)
-        if code != OK:
-            return code
-        assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
-        return OK
-    return loaded
+    """The effects' loads, then assemble; returns a status code. loads =
+    (cfunc of LOADS_SIG, ints, floats, state); `compiled.CompiledRHS` passes
+    `no_loads` for a problem without effects, so that one compiled
+    specialisation of the loops serves every problem."""
+    fn, l_int, l_flt, l_state = loads
+    kinematics(q_all, qd_all, data, work)
+    fnodes[:, :] = 0.0
+    fflag[:] = 0
+    code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state)
+    if code != OK:
+        return code
+    assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
+    return OK
 
 
 #: the `solve` argument of `free_system` in compiled callers: numba types a
@@ -725,8 +712,8 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
     gravity, linear (row, col) and (stiffness, damping) of generalised
     spring-dampers gen_row -= k q_col + c qd_col, node forces, node-force
-    flag per body, loads = None or (cfunc of LOADS_SIG, ints, floats, state):
-    the effects' loads);
+    flag per body, loads = (cfunc of LOADS_SIG, ints, floats, state): the
+    effects' loads, `no_loads` without effects);
     rwork = (rows q_all, qd_all, qdd_p, gen; M; F; Mf; Ff)."""
     free, presc, pcoef, fixed, gvec, lin_idx, lin_kc, fnodes, fflag, loads = prob
     st, M, F, Mf, Ff = rwork[0], rwork[1], rwork[2], rwork[3], rwork[4]
@@ -784,17 +771,6 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     return OK, -1
 
 
-def _load_state(loads):
-    """The effects' state array of `loads` (empty without loads)."""
-
-
-@overload(_load_state, jit_options={"cache": True})
-def _load_state_impl(loads):
-    if isinstance(loads, types.NoneType):
-        return lambda loads: np.zeros(0)
-    return lambda loads: loads[3]
-
-
 @njit(cache=True)
 def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
     """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
@@ -813,7 +789,7 @@ def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
         code, _ = free_system(ts[k], X[k], acc, SOLVE, inf, prob, rwork, data, work)
         if code != OK:
             return code
-        state = _load_state(prob[9])
+        state = prob[9][3]
         for j in range(slots.shape[0]):
             out[k, nr + j] = state[slots[j]]
         M, F, qddp = rwork[1], rwork[2], rwork[0][2]
