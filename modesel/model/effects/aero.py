@@ -291,10 +291,7 @@ class BladeAerodynamics(Effect):
             thrust += f
             torque += m
         omega = float(vec[self.hub, 2] @ R[self.hub][:, 0])
-        power = torque * omega
-        v = self.last["v_dot_x"]
-        area = np.pi * self.rmax**2
-        cp = power / (0.5 * self.bem.solver.air_density * area * v**3) if abs(v) >= CP_MIN_WIND else 0.0
+        power, cp = rotor_power(torque, omega, self.last["v_dot_x"], self.bem.solver.air_density, self.rmax)
         return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp}
 
 
@@ -326,6 +323,19 @@ def rotor_loads(forces, pos, R_hub, apex):
         thrust += f[0] * R_hub[0, 0] + f[1] * R_hub[1, 0] + f[2] * R_hub[2, 0]
         torque += m0 * R_hub[0, 0] + m1 * R_hub[1, 0] + m2 * R_hub[2, 0]
     return thrust, torque
+
+
+@njit(cache=True)
+def rotor_power(torque, omega, v, rho, rmax):
+    """(RtAeroPwr [W], RtAeroCp [-]) of the rotor torque [N m] at rotor speed
+    omega [rad/s], with v [m/s] the disk-averaged relative wind along the hub
+    x axis, air density rho [kg/m^3] and RtArea = pi rmax^2 (AeroDyn_IO.f90:
+    Cp = 0 for |v| < CP_MIN_WIND)."""
+    power = torque * omega
+    if abs(v) < CP_MIN_WIND:
+        return power, 0.0
+    return power, power / (0.5 * rho * np.pi * rmax * rmax * v ** 3)
+
 
 def _sampled_transfer(stations, at, weights):
     """(nodes, stations) matrix T: node force = sum_a T[i, a] f_a with f

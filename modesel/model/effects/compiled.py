@@ -29,8 +29,8 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import (CP_MIN_WIND, distribute, elastic_correction, inflow, node_moments,
-                                        rotor_loads, station_rotations)
+from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, rotor_loads,
+                                        rotor_power, station_rotations)
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
@@ -217,11 +217,9 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
     for k in range(3):
         omega += vec[hub, 2, k] * R[hub, k, 0]
         v += vrel[k] * R[hub, k, 0]
-    power = torque * omega
     out[0] = thrust
     out[1] = torque
-    out[2] = power
-    out[3] = power / (0.5 * rho * np.pi * rmax * rmax * v ** 3) if abs(v) >= CP_MIN_WIND else 0.0
+    out[2], out[3] = rotor_power(torque, omega, v, rho, rmax)
 
 
 @njit(cache=True)
