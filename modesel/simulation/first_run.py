@@ -121,7 +121,7 @@ def compile_in_parallel(built) -> bool:
     return True
 
 
-def _compile_kernel(built, rhs_done=lambda: None) -> None:
+def _compile_kernel(built, rhs_done) -> None:
     """Compile (or load) the kernel's right-hand side and DOP853 for
     `built`'s equations with `NO_LOADS`: the argument types of the
     simulation's own, with or without effects; `rhs_done()` once the

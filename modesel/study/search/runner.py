@@ -29,13 +29,13 @@ import numpy as np
 
 from modesel.errors import ModeselError
 from modesel.simulation.first_run import die_with_parent_signal
+from modesel.simulation.progress import CompileProgress
 from modesel.study.metrics import StopWhenMet
 from modesel.study.search import engine as engines
 from modesel.study.search.claims import abandoned, distinct_sets
 from modesel.study.search.engine import Engine
 from modesel.study.search.load_case import load_scenes, prepare_references
 from modesel.study.search.objective import Objective
-from modesel.simulation.progress import CompileProgress
 from modesel.study.search.progress import Progress, counts
 from modesel.study.search.samplers import make_sampler, worker_seed
 from modesel.study.search.owners import OWNER, process_owner
