@@ -533,3 +533,50 @@ def test_tower_drag_eq51(deck):
     exact = 0.5 * 1.225 * 11.0 ** 2 / zr ** (2 * al) * (
         d0 * H ** (2 * al + 1) / (2 * al + 1) + slope * H ** (2 * al + 2) / (2 * al + 2))
     assert total == pytest.approx(exact, rel=1e-6)
+
+
+@pytest.mark.parametrize("case", ["elastodyn_nodes", "fem_quadrature"])
+def test_banded_load_transfer_equals_the_dense_matrices(case):
+    """`distribute` and `node_moments` take the transfer and lumping matrices
+    as banded rows (`row_bands`). The bands hold every non-zero of the dense
+    matrices, and both functions give what the dense matrices give (the
+    same functions on the whole rows, first = 0, and for the forces numpy's
+    product) on random loads, for ElastoDyn's blade nodes (steady_08:
+    lumped transfer, OpenFAST's moment points) and for fem shapes on
+    quadrature nodes (sampled transfer, 200-odd nodes per blade)."""
+    from modesel.model.effects.aero import distribute, node_moments, row_bands
+    from modesel.modeset import FieldModes, ModeSet
+    from modesel.simulation.api import load_scene
+    from modesel.simulation.assembly import build
+    if case == "elastodyn_nodes":
+        b = build(load_scene(os.path.join(HERE, "..", "studies", "data", "openfast", "steady_08", "steady_08.fst")))
+    else:
+        fields = ("tower_fa", "tower_ss", "tower_torsion", "blade_flap", "blade_edge")
+        b = build(load_scene(os.path.join(HERE, "..", "studies", "scenes", "turbine_wind_11p4.toml")),
+                  ModeSet({f: FieldModes("fem", 2) for f in fields}))
+    aero = b.effect("aero")
+    B, M = aero.r.shape
+    for W in (aero.transfer, aero.lumping):
+        values, first = row_bands(W)
+        assert values.shape[1] < W.shape[1] // 2                    # a band, not the whole row
+        rebuilt = np.zeros_like(W)
+        for i in range(W.shape[0]):
+            rebuilt[i, first[i]:first[i] + values.shape[1]] = values[i]
+        assert np.array_equal(rebuilt, W)
+    rng = np.random.default_rng(3)
+    fn, ft, fm = (rng.normal(size=(B, M)) * 1e3 for _ in range(3))
+    en, et = rng.normal(size=(B, M, 3)), rng.normal(size=(B, M, 3))
+    R = np.array([np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(int(aero.blades.max()) + 1)])
+    whole = lambda W: (W, np.zeros(W.shape[0], np.int64))             # noqa: E731
+    results = []
+    for T, L in ((aero.transfer_rows, aero.lumping_rows), (whole(aero.transfer), whole(aero.lumping))):
+        forces, gen = np.zeros_like(aero.forces), np.zeros(b.eq.n_all)
+        distribute(fn, ft, en, et, *T, forces)
+        node_moments(fn, ft, fm, 1.0, en, et, R, aero.blades, *L, aero.near, aero.offset, aero.node_slopes,
+                     aero.elastic, forces, gen)
+        results.append((forces, gen))
+    dense = np.einsum("ia,bac->bic", aero.transfer, fn[..., None] * en + ft[..., None] * et)
+    assert np.allclose(results[0][0][..., :3], dense, rtol=1e-13, atol=1e-12 * np.abs(dense).max())
+    for banded, full in zip(*results):
+        assert np.allclose(banded, full, rtol=1e-13, atol=1e-12 * np.abs(full).max())
+    assert np.abs(results[0][0][..., 3:]).max() > 0                  # the moments were exercised

@@ -193,6 +193,8 @@ class BladeAerodynamics(Effect):
             self.offset = np.zeros((len(nodes_span), 3))
             for c in range(2):
                 self.offset[:, c] = np.interp(nodes_span, span, line[:, c])
+        self.transfer_rows = row_bands(self.transfer)
+        self.lumping_rows = row_bands(self.lumping)
         use_cm = deck.pitching_moment if self.options["pitching_moment"] is None else self.options["pitching_moment"]
         self.cm_scale = 1.0 if use_cm else 0.0
         self.hub = eq.body_index["hub"]
@@ -218,12 +220,12 @@ class BladeAerodynamics(Effect):
                self.r, self.tip_ratio, self.vrel)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
                           self.theta)
-        distribute(fn, ft, self.en, self.et, self.transfer, self.forces)
+        distribute(fn, ft, self.en, self.et, *self.transfer_rows, self.forces)
         if self.correction.shape[2]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
         node_moments(fn, ft, self.bem.buffers.out[11].reshape(fn.shape), self.cm_scale, self.en, self.et, R,
-                     self.blades, self.lumping, self.near, self.offset, self.node_slopes, self.elastic, self.forces,
-                     generalized)
+                     self.blades, *self.lumping_rows, self.near, self.offset, self.node_slopes, self.elastic,
+                     self.forces, generalized)
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
@@ -241,7 +243,9 @@ class BladeAerodynamics(Effect):
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
                               o.tolerance, self.rmax])
         o_elem = packer.add(buf.chord.ravel())
-        o_T = packer.add(self.transfer)
+        T_band, T_first = self.transfer_rows
+        L_band, L_first = self.lumping_rows
+        o_T = packer.add(T_band)
         o_pol = packer.add(np.concatenate([grid, value.ravel(), slope.ravel()]))
         o_ref = packer.add(self.reference)
         o_slopes = packer.add(np.concatenate([np.ravel(g) for g in self.slopes]))
@@ -251,7 +255,7 @@ class BladeAerodynamics(Effect):
         has_corr = self.correction.shape[2] > 0
         o_corr = packer.add(self.correction) if has_corr else 0
         K = len(self.near)
-        o_mom = packer.add(np.concatenate([[self.cm_scale], self.lumping.ravel(), self.offset.ravel(),
+        o_mom = packer.add(np.concatenate([[self.cm_scale], L_band.ravel(), self.offset.ravel(),
                                            self.node_slopes.ravel()]))
         scratch = 5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6
         o_scr = packer.scratch(scratch + B * M)
@@ -261,9 +265,10 @@ class BladeAerodynamics(Effect):
         for k, name in enumerate(self.CHANNELS):
             packer.channel(name, o_ch + k)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
-                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch]
+                o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
+                T_band.shape[1], L_band.shape[1]]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
-        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
+        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near) + list(T_first) + list(L_first)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
@@ -501,12 +506,13 @@ def elastic_correction(fn, ft, en, et, R, blades, D, elastic, generalized):
 
 
 @njit(cache=True)
-def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slopes, elastic, forces, generalized):
+def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset, slopes, elastic, forces,
+                 generalized):
     """Node moments of the blade loads (module doc, step 5): the line loads
     f_a = f_n,a e_n,a + f_t,a e_t,a [N/m] and the pitching moments cm_scale
     fm_a e_z,a [N m/m] (e_z = e_t x e_n, the annulus z axis of the deflected
-    section, AeroDyn's BEM_Mod 1) lumped to K points, F_p = sum_a L[p, a] f_a
-    and M_p = sum_a L[p, a] m_a, and with the moment of the point's offset
+    section, AeroDyn's BEM_Mod 1) lumped to K points, F_p = sum_a L_pa f_a
+    and M_p = sum_a L_pa m_a (L in banded rows, `row_bands`), and with the moment of the point's offset
     from the blade axis, d_p x F_p (d_p = R_blade offset[p]), put on node
     near[p] as forces[b, near[p], 3:6] (the engine applies a node moment
     through the body's angular velocity: all rigid coordinates). The blade's
@@ -524,10 +530,11 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, near, offset, slope
             forces[b, i, 5] = 0.0
         for p in range(L.shape[0]):
             F0 = F1 = F2 = M0 = M1 = M2 = 0.0
-            for a in range(L.shape[1]):
-                w = L[p, a]
+            for k in range(L.shape[1]):
+                w = L[p, k]
                 if w == 0.0:
                     continue
+                a = first[p] + k
                 n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
                 t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
                 F0 += w * (fn[b, a] * n0 + ft[b, a] * t0)
@@ -688,17 +695,40 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en
 
 
 @njit(cache=True)
-def distribute(fn, ft, en, et, T, out):
-    """Node forces out[b, i] = sum_a T[i, a] (f_n,a e_n,a + f_t,a e_t,a) from
+def distribute(fn, ft, en, et, T, first, out):
+    """Node forces out[b, i] = sum_a T_ia (f_n,a e_n,a + f_t,a e_t,a) from
     the loads per unit length at the stations (module doc, step 5; en, et
-    (B, M, 3) per station)."""
+    (B, M, 3) per station); T in banded rows (`row_bands`): T_ia =
+    T[i, a - first[i]]."""
     for b in range(out.shape[0]):
         for i in range(out.shape[1]):
+            f0 = first[i]
             for c in range(3):
                 v = 0.0
-                for a in range(T.shape[1]):
-                    v += T[i, a] * (fn[b, a] * en[b, a, c] + ft[b, a] * et[b, a, c])
+                for k in range(T.shape[1]):
+                    a = f0 + k
+                    v += T[i, k] * (fn[b, a] * en[b, a, c] + ft[b, a] * et[b, a, c])
                 out[b, i, c] = v
+
+
+def row_bands(W):
+    """The rows of a (rows, cols) matrix W as bands: (values (rows, width),
+    first (rows,) int64) with W[i, first[i] + k] = values[i, k] and zero
+    outside, width the widest band of non-zeros of any row (at least 1).
+    The transfer and lumping matrices have a few non-zeros per row (linear
+    interpolation, line lumping), so `distribute` and `node_moments` cost
+    the band instead of every station."""
+    W = np.asarray(W, float)
+    rows, cols = W.shape
+    nz = W != 0.0
+    lo = np.where(nz.any(axis=1), nz.argmax(axis=1), 0)
+    hi = np.where(nz.any(axis=1), cols - 1 - nz[:, ::-1].argmax(axis=1), 0)
+    width = max(int((hi - lo).max(initial=0)) + 1, 1)
+    first = np.minimum(lo, cols - width).astype(np.int64)
+    values = np.zeros((rows, width))
+    for i in range(rows):
+        values[i] = W[i, first[i]:first[i] + width]
+    return values, first
 
 
 EFFECT = BladeAerodynamics

@@ -92,7 +92,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     o_ref, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
                                                           ints[p + 14], ints[p + 15], ints[p + 16])
     has_corr, o_mom, K, o_ch = ints[p + 17], ints[p + 18], ints[p + 19], ints[p + 20]
-    p += 21
+    WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
+    p += 23
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -100,6 +101,10 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     elastic = ints[p:p + B * ne_el].reshape((B, ne_el))
     p += B * ne_el
     near = ints[p:p + K]
+    p += K
+    T_first = ints[p:p + N]
+    p += N
+    L_first = ints[p:p + K]
     p += K
     o = o_scr
     pos = state[o:o + B * M * 3].reshape((B, M, 3))
@@ -170,21 +175,21 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
                    c[4], c[5], flags[6], out, guess)
-    T = floats[o_T:o_T + N * M].reshape((N, M))
+    T = floats[o_T:o_T + N * WT].reshape((N, WT))
     fn = out[9].reshape((B, M))
     ft = out[10].reshape((B, M))
-    distribute(fn, ft, en, et, T, forces)
+    distribute(fn, ft, en, et, T, T_first, forces)
     if has_corr != 0:
         D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
         elastic_correction(fn, ft, en, et, R, blades, D, elastic, gen)
     cm_scale = floats[o_mom]
     om = o_mom + 1
-    L = floats[om:om + K * M].reshape((K, M))
-    om += K * M
+    L = floats[om:om + K * WL].reshape((K, WL))
+    om += K * WL
     moff = floats[om:om + 3 * K].reshape((K, 3))
     om += 3 * K
     nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
-    node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, near, moff, nslopes,
+    node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, L_first, near, moff, nslopes,
                  elastic, forces, gen)
     for b in range(B):
         s = starts[b]
