@@ -2,14 +2,15 @@
 one `KaneEquations`, built from its public attributes: the packed arrays
 (`packed_full`, `packed_free`), the coordinate indices and the prescribed
 motion. `integrate` takes it as the right-hand side of the method
-"compiled-DOP853" (`kernel.dop853`) and "compiled-Radau" (`implicit.radau5`),
-and of scipy's methods through `accelerations`.
+"compiled-DOP853" (`kernel.dop853`), "compiled-RK45" (`rk45.rk45`) and
+"compiled-Radau" (`implicit.radau5`), and of scipy's methods through
+`accelerations`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from modesel.multibody import implicit, kernel
+from modesel.multibody import implicit, kernel, rk45
 
 
 class CompiledRHS:
@@ -21,7 +22,7 @@ class CompiledRHS:
     [N/m, N s/m or N m/rad, N m s/rad] (e.g. the drivetrain, ElastoDyn
     DTTorSpr/DTTorDmp). Callable as (t, q, qd) -> (M, F) of the free
     coordinates like `Built.M_F`; `accelerations(t, q, qd)` solves inside the
-    kernel; `dop853` integrates entirely compiled, which needs every
+    kernel; `dop853`, `rk45` and `radau` integrate entirely compiled, which need every
     prescribed coordinate to be polynomial in t (`compilable`). `full`
     evaluates all coordinates: every row with all_rows=True, else only the
     rows of free and prescribed coordinates (the others are zero);
@@ -152,16 +153,23 @@ class CompiledRHS:
         return out
 
     def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
-        """Integrate from x0 = [q, qd] over [0, tmax]:
+        """Integrate from x0 = [q, qd] over [0, tmax] with `kernel.dop853`:
         (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval)."""
+        return self._explicit(kernel.dop853, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
+
+    def rk45(self, x0, t_eval, tmax, rtol, atol, max_step, bounds):
+        """As `dop853`, with Dormand-Prince 5(4) (`rk45.rk45`)."""
+        return self._explicit(rk45.rk45, x0, t_eval, tmax, rtol, atol, max_step, bounds, rk45.TABLE)
+
+    def _explicit(self, loop, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
         Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
-        code, t_stop, nfev, n_out, idx = kernel.dop853(np.array(x0, float), np.asarray(t_eval, float),
-                                                       float(tmax), float(rtol), np.asarray(atol, float),
-                                                       float(max_step), np.asarray(bounds, float), tuple(table),
-                                                       self.prob, self.rwork, p.data, p.work, Y)
+        code, t_stop, nfev, n_out, idx = loop(np.array(x0, float), np.asarray(t_eval, float), float(tmax),
+                                              float(rtol), np.asarray(atol, float), float(max_step),
+                                              np.asarray(bounds, float), tuple(table), self.prob, self.rwork,
+                                              p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out]
 
     def jacobian(self, t, q, qd):

@@ -6,6 +6,9 @@
   (`kernel.dop853`) on a `CompiledRHS` whose prescribed coordinates are
   polynomial in t (`CompiledRHS.compilable`); its outputs equal scipy's
   DOP853 to round-off;
+- "compiled-RK45": Dormand-Prince 5(4) with scipy's RK45 step control,
+  initial step and dense output, run entirely in the kernel (`rk45.rk45`)
+  on the same right-hand sides; its outputs equal scipy's RK45 to round-off;
 - "compiled-Radau": Radau IIA of order 5 with scipy's algorithm (Newton
   iteration, step control, error estimate, dense output), run entirely in
   the numba kernel (`implicit.radau5`) with the Jacobian of the compiled
@@ -20,8 +23,9 @@ Method choice (`choose_method`, "auto"): the scene is linearised at its
 initial state; with stiffness ratio r = omega_max / omega_min of the
 non-zero natural frequencies and N = omega_max * tmax / (2 pi) cycles of the
 fastest mode, an explicit Runge-Kutta method is used when r < STIFF_RATIO = 80
-("compiled-DOP853" when the right-hand side runs compiled, else "DOP853"),
-else the implicit Radau IIA method, whose step is not limited by the fastest
+(`explicit_method`: Dormand-Prince 5(4) at a relative tolerance of
+LOW_ORDER_RTOL = 1e-6 or looser, else DOP853; "compiled-" when the
+right-hand side runs compiled), else the implicit Radau IIA method, whose step is not limited by the fastest
 mode ("compiled-Radau" when the right-hand side runs compiled, else scipy's
 "Radau"). The choice and the numbers behind it are returned with the result.
 
@@ -48,9 +52,23 @@ from modesel.multibody import dop853_tableau, kernel
 from modesel.multibody.compiled import CompiledRHS
 
 COMPILED_DOP853 = "compiled-DOP853"
+COMPILED_RK45 = "compiled-RK45"
 COMPILED_RADAU = "compiled-Radau"
 SCIPY_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
-METHODS = (COMPILED_DOP853, COMPILED_RADAU) + SCIPY_METHODS
+METHODS = (COMPILED_DOP853, COMPILED_RK45, COMPILED_RADAU) + SCIPY_METHODS
+COMPILED_METHODS = (COMPILED_DOP853, COMPILED_RK45, COMPILED_RADAU)
+#: relative tolerance from which "auto" integrates explicitly with
+#: Dormand-Prince 5(4) instead of DOP853. With BEM the right-hand side has
+#: kinks (polars interpolated linearly in the angle of attack), across which
+#: an eighth-order step is no more accurate than a fifth-order one at twice
+#: the stages. Measured against compiled-DOP853 at rtol 1e-10 (largest error
+#: of any coordinate or rate over the run, relative to its range):
+#: steady_08, 100 s: DOP853 at rtol 1e-5 / atol 1e-6 15242 right-hand
+#: sides, error 9.7e-4; RK45 at 3e-6 / 3e-7 11252, 9.9e-4. steady_11p4,
+#: 20 s: 7316, 4.5e-4; 4226, 8.4e-4. turbine_wind_11p4 (its own 1e-5 /
+#: 1e-5), 20 s: 3458 against 1436 right-hand sides, errors of the same size
+#: per coordinate (`python3 benchmarks/bench_methods.py SCENE --tmax T`).
+LOW_ORDER_RTOL = 1e-6
 #: stiffness ratio omega_max / omega_min from which "auto" integrates implicitly:
 #: where the two compiled methods cost the same. Measured (10 s each, the
 #: scene's tolerances for both methods, idle 2-core machine; wall of the whole
@@ -109,15 +127,26 @@ class Integration:
 
 
 def runs_compiled(rhs_M_F) -> bool:
-    """Whether `rhs_M_F` can be integrated by "compiled-DOP853"."""
+    """Whether `rhs_M_F` can be integrated by the compiled methods (`COMPILED_METHODS`)."""
     return isinstance(rhs_M_F, CompiledRHS) and rhs_M_F.compilable
 
 
-def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tuple[str, float]:
+def explicit_method(rtol: float | None = None, compiled: bool = True) -> str:
+    """The explicit method "auto" takes at relative tolerance `rtol` (None:
+    the explicit default): Dormand-Prince 5(4) from LOW_ORDER_RTOL on, else
+    DOP853; "compiled-" when `compiled`."""
+    rtol = DEFAULT_TOLERANCES["explicit"][0] if rtol is None else float(rtol)
+    if rtol >= LOW_ORDER_RTOL:
+        return COMPILED_RK45 if compiled else "RK45"
+    return COMPILED_DOP853 if compiled else "DOP853"
+
+
+def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None, rtol=None) -> tuple[str, float]:
     """(method, stiffness ratio) from the natural frequencies [rad/s]:
     `requested` unless "auto"; "auto" gives the implicit Radau IIA for a
-    ratio of STIFF_RATIO or more, else DOP853; each "compiled-" when `rhs`
-    runs compiled."""
+    ratio of STIFF_RATIO or more, else the explicit method of `rtol` (the
+    scene's relative tolerance, None for the default: `explicit_method`);
+    each "compiled-" when `rhs` runs compiled."""
     w = np.abs(omegas[np.abs(omegas) > 1e-6])
     ratio = float(w.max() / w.min()) if len(w) else 1.0
     if requested != "auto":
@@ -125,7 +154,7 @@ def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None) -> tupl
     compiled = runs_compiled(rhs)
     if ratio >= STIFF_RATIO:
         return (COMPILED_RADAU if compiled else "Radau"), ratio
-    return (COMPILED_DOP853 if compiled else "DOP853"), ratio
+    return explicit_method(rtol, compiled), ratio
 
 
 @functools.lru_cache(maxsize=1)
@@ -197,7 +226,7 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
         atol = 1e-10
     x0 = np.concatenate([q0, qd0]).astype(float)
     with single_thread_blas():
-        if method in (COMPILED_DOP853, COMPILED_RADAU):
+        if method in COMPILED_METHODS:
             if not runs_compiled(rhs_M_F):
                 raise ModeselError(f"{method} needs a compiled right-hand side with prescribed motion "
                                    "polynomial in time (and every load effect in compiled form)",
@@ -259,8 +288,9 @@ def _beyond(i):
 
 def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, stiffness_ratio,
                         method=COMPILED_DOP853) -> Integration:
-    """compiled-DOP853 or compiled-Radau: the method entirely in the kernel
-    (same algorithm and tolerances as solve_ivp's DOP853 / Radau)."""
+    """compiled-DOP853, compiled-RK45 or compiled-Radau: the method entirely
+    in the kernel (same algorithm and tolerances as solve_ivp's DOP853 /
+    RK45 / Radau)."""
     nx = len(x0)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)     # as scipy validate_tol
     atol = np.broadcast_to(np.asarray(atol, float), (nx,)).copy()
@@ -271,6 +301,8 @@ def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, sti
     info = {}
     if method == COMPILED_RADAU:
         code, t_stop, nfev, idx, Y, info = rhs.radau(x0, t_eval, tmax, rtol, atol, float(max_step), bounds)
+    elif method == COMPILED_RK45:
+        code, t_stop, nfev, idx, Y = rhs.rk45(x0, t_eval, tmax, rtol, atol, float(max_step), bounds)
     else:
         code, t_stop, nfev, idx, Y = rhs.dop853(x0, t_eval, tmax, rtol, atol, float(max_step), bounds,
                                                 _DOP853_TABLE)

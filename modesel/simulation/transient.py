@@ -9,7 +9,8 @@ import numpy as np
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
-from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
+from modesel.multibody.integrate import (choose_method, default_tolerances, explicit_method, integrate,
+                                        single_thread_blas)
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
 from modesel.simulation.assembly import Built, build
@@ -71,7 +72,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     rows = check_time_grid(tmax, dt, file=scene.path)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
-    first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once
+    # first run with compiled loads: loads and kernel at once (the explicit loop of the scene's tolerance)
+    first_run.compile_in_parallel(built, explicit_method(scene.solver.get("rtol")))
     requested = scene.solver.get("method", "auto")
     names = list(built.model.system.free)
     n = len(names)
@@ -93,7 +95,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
-    method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs)
+    method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs,
+                                  scene.solver.get("rtol"))
     rtol, atol = default_tolerances(method)
     try:
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,

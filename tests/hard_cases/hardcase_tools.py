@@ -20,7 +20,7 @@ from modesel.modeset import FieldModes, ModeSet
 from modesel.simulation import api
 from modesel.multibody import linearize as lin
 from modesel.multibody.energy import total_energy
-from modesel.multibody.integrate import runs_compiled
+from modesel.multibody.integrate import explicit_method, runs_compiled
 
 REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "studies" / "scenes"
@@ -142,6 +142,6 @@ def assert_method_justified(run: Run, sc, ms=None) -> None:
     ratio = detected_ratio(sc, ms)
     assert run.ratio == np.float64(run.ratio) and abs(run.ratio / ratio - 1) < 1e-6, (run.ratio, ratio)
     compiled = runs_compiled(run.built.rhs())
-    explicit = "compiled-DOP853" if compiled else "DOP853"
+    explicit = explicit_method(sc.solver.get("rtol"), compiled)
     implicit = "compiled-Radau" if compiled else "Radau"
     assert run.method == (implicit if ratio >= STIFF_RATIO else explicit), (run.method, ratio)
