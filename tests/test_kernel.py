@@ -195,13 +195,14 @@ def test_compiled_dop853_equals_solve_ivp(turbine):
 
 
 def test_rk45_tableau_is_scipys():
-    """compiled-RK45's tableau (numbers in `rk45`) equals scipy's RK45 class
-    attributes bit for bit."""
+    """compiled-RK45's tableau (numbers in `rk45_tableau`) equals scipy's RK45
+    class attributes bit for bit."""
     from scipy.integrate import RK45
 
-    from modesel.multibody import rk45
-    for ours, theirs in zip(rk45.TABLE, (RK45.A, RK45.B, RK45.C, RK45.E, RK45.P)):
+    from modesel.multibody.rk45_tableau import A, B, C, E, P, TABLE
+    for ours, theirs in ((A, RK45.A), (B, RK45.B), (C, RK45.C), (E, RK45.E), (P, RK45.P)):
         assert ours.shape == theirs.shape and np.array_equal(ours, theirs)
+    assert all(x is y for x, y in zip(TABLE, (A, B, C, E, E, P)))
 
 
 def test_compiled_rk45_equals_solve_ivp(turbine):

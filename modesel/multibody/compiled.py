@@ -2,7 +2,7 @@
 one `KaneEquations`, built from its public attributes: the packed arrays
 (`packed_full`, `packed_free`), the coordinate indices and the prescribed
 motion. `integrate` takes it as the right-hand side of the method
-"compiled-DOP853" (`kernel.dop853`), "compiled-RK45" (`rk45.rk45`) and
+"compiled-DOP853" and "compiled-RK45" (`kernel.runge_kutta`) and
 "compiled-Radau" (`implicit.radau5`), and of scipy's methods through
 `accelerations`.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modesel.multibody import implicit, kernel, rk45
+from modesel.multibody import implicit, kernel, rk45_tableau
 
 
 class CompiledRHS:
@@ -153,23 +153,26 @@ class CompiledRHS:
         return out
 
     def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
-        """Integrate from x0 = [q, qd] over [0, tmax] with `kernel.dop853`:
+        """Integrate from x0 = [q, qd] over [0, tmax] with DOP853
+        (`kernel.runge_kutta`, `table` of `dop853_tableau`):
         (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval)."""
-        return self._explicit(kernel.dop853, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
+        return self._explicit(kernel.DOP853_KIND, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
 
     def rk45(self, x0, t_eval, tmax, rtol, atol, max_step, bounds):
-        """As `dop853`, with Dormand-Prince 5(4) (`rk45.rk45`)."""
-        return self._explicit(rk45.rk45, x0, t_eval, tmax, rtol, atol, max_step, bounds, rk45.TABLE)
+        """As `dop853`, with Dormand-Prince 5(4) (`rk45_tableau`)."""
+        return self._explicit(kernel.RK45_KIND, x0, t_eval, tmax, rtol, atol, max_step, bounds,
+                              rk45_tableau.TABLE)
 
-    def _explicit(self, loop, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+    def _explicit(self, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
         Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
-        code, t_stop, nfev, n_out, idx = loop(np.array(x0, float), np.asarray(t_eval, float), float(tmax),
-                                              float(rtol), np.asarray(atol, float), float(max_step),
-                                              np.asarray(bounds, float), tuple(table), self.prob, self.rwork,
-                                              p.data, p.work, Y)
+        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(np.array(x0, float), np.asarray(t_eval, float),
+                                                            float(tmax), float(rtol), np.asarray(atol, float),
+                                                            float(max_step), np.asarray(bounds, float),
+                                                            tuple(table), kind, self.prob, self.rwork, p.data,
+                                                            p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out]
 
     def jacobian(self, t, q, qd):

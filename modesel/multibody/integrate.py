@@ -3,12 +3,13 @@
 
 - "compiled-DOP853": Dormand-Prince 8(5,3) with scipy's DOP853 step
   control, initial step and dense output, run entirely in the numba kernel
-  (`kernel.dop853`) on a `CompiledRHS` whose prescribed coordinates are
+  (`kernel.runge_kutta`) on a `CompiledRHS` whose prescribed coordinates are
   polynomial in t (`CompiledRHS.compilable`); its outputs equal scipy's
   DOP853 to round-off;
 - "compiled-RK45": Dormand-Prince 5(4) with scipy's RK45 step control,
-  initial step and dense output, run entirely in the kernel (`rk45.rk45`)
-  on the same right-hand sides; its outputs equal scipy's RK45 to round-off;
+  initial step and dense output, run by the same compiled loop
+  (`kernel.runge_kutta`) with its own tableau (`rk45_tableau`); its outputs
+  equal scipy's RK45 to round-off;
 - "compiled-Radau": Radau IIA of order 5 with scipy's algorithm (Newton
   iteration, step control, error estimate, dense output), run entirely in
   the numba kernel (`implicit.radau5`) with the Jacobian of the compiled

@@ -873,18 +873,33 @@ def rk_stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     return free_system(t + C[s] * h, ys, K[s], SOLVE, bounds, prob, rwork, data, work)
 
 
+#: the explicit Runge-Kutta pairs of `runge_kutta` (its `kind`)
+DOP853_KIND, RK45_KIND = 0, 1
+
+
 @njit(cache=True)
-def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
-    """Dormand-Prince 8(5,3) with the step control, initial step and 7th-order
-    dense output of scipy.integrate.DOP853 (Hairer, Norsett & Wanner II.10),
-    evaluated at t_eval (increasing, within [0, tmax]) into Y.
+def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob, rwork, data, work, Y):
+    """An explicit Runge-Kutta pair with the step control and initial step of
+    scipy.integrate's RungeKutta, evaluated at t_eval (increasing, within
+    [0, tmax]) into Y. One loop for both pairs, so that one compiled
+    specialisation serves them (the first run compiles it once):
+
+    - kind DOP853_KIND: Dormand-Prince 8(5,3), scipy's DOP853 (Hairer,
+      Norsett & Wanner I, II.10): its combined 5th/3rd-order error norm and
+      7th-order dense output with 3 extra stages; tab = (A, B, C, E3, E5, D)
+      of `dop853_tableau`;
+    - kind RK45_KIND: Dormand-Prince 5(4), scipy's RK45 (Dormand & Prince
+      1980; HNW I, II.4-5): 4th-order error estimate h K^T E and quartic
+      dense output y + h sum_k (K^T P)_k x^(k+1); tab = (A, B, C, E, E, P) of
+      `rk45_tableau`.
 
     Returns (status, time, n_rhs, n_out, index): status OK, a divergence code
-    of `_state_derivative` (time = where it occurred) or STEP_COLLAPSE."""
+    of `free_system` (time = where it occurred) or STEP_COLLAPSE."""
     A, B, C, E3, E5, D = tab
+    dop = kind == DOP853_KIND
     nx = x0.shape[0]
     n_stages = B.shape[0]
-    K = np.zeros((A.shape[0], nx))
+    K = np.zeros((max(A.shape[0], n_stages + 1), nx))
     y = x0.copy()
     y_new = np.empty(nx)
     f = np.empty(nx)
@@ -893,11 +908,12 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     scale = np.empty(nx)
     e5 = np.empty(nx)
     e3 = np.empty(nx)
-    Fd = np.empty((3 + D.shape[0], nx))
-    err_exp = -1.0 / 8.0                     # error estimator order 7
+    Fd = np.empty((3 + D.shape[0] if dop else D.shape[1], nx))     # dense output coefficients
+    order = 7 if dop else 4                  # of the error estimator
+    err_exp = -1.0 / (order + 1)
     SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
     t = 0.0
-    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, 7, bounds, prob, rwork, data, work)
+    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
     if code != OK:
         return code, h_abs, nfev, 0, idx
     n_out = 0
@@ -940,7 +956,7 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                 return code, t + h, nfev, n_out, idx
             for i in range(nx):
                 K[n_stages, i] = f_new[i]
-            # error estimate (scipy DOP853._estimate_error_norm)
+            # error estimate (scipy DOP853._estimate_error_norm / RungeKutta._estimate_error_norm)
             for i in range(nx):
                 scale[i] = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
                 a5 = 0.0
@@ -955,7 +971,9 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             for i in range(nx):
                 n5 += e5[i] * e5[i]
                 n3 += e3[i] * e3[i]
-            if n5 == 0.0 and n3 == 0.0:
+            if not dop:
+                error_norm = abs(h) * np.sqrt(n5 / nx)
+            elif n5 == 0.0 and n3 == 0.0:
                 error_norm = 0.0
             else:
                 error_norm = abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * nx)
@@ -975,32 +993,47 @@ def dop853(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
         t = t_new
         # dense output on the outputs in (t_old, t] (all remaining at the end)
         if n_out < nt and (t_eval[n_out] <= t or t >= tmax):
-            for s in range(n_stages + 1, A.shape[0]):
-                code, idx = rk_stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
-                nfev += 1
-                if code != OK:
-                    return code, t_old + C[s] * h, nfev, n_out, idx
-            for i in range(nx):
-                dy = y_new[i] - y[i]
-                Fd[0, i] = dy
-                Fd[1, i] = h * K[0, i] - dy
-                Fd[2, i] = 2 * dy - h * (f_new[i] + K[0, i])
-                for r in range(D.shape[0]):
-                    acc = 0.0
-                    for j in range(A.shape[0]):
-                        acc += D[r, j] * K[j, i]
-                    Fd[3 + r, i] = h * acc
+            if dop:
+                for s in range(n_stages + 1, A.shape[0]):
+                    code, idx = rk_stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                    nfev += 1
+                    if code != OK:
+                        return code, t_old + C[s] * h, nfev, n_out, idx
+                for i in range(nx):
+                    dy = y_new[i] - y[i]
+                    Fd[0, i] = dy
+                    Fd[1, i] = h * K[0, i] - dy
+                    Fd[2, i] = 2 * dy - h * (f_new[i] + K[0, i])
+                    for r in range(D.shape[0]):
+                        acc = 0.0
+                        for j in range(A.shape[0]):
+                            acc += D[r, j] * K[j, i]
+                        Fd[3 + r, i] = h * acc
+            else:
+                for i in range(nx):
+                    for r in range(D.shape[1]):
+                        acc = 0.0
+                        for j in range(n_stages + 1):
+                            acc += K[j, i] * D[j, r]
+                        Fd[r, i] = acc
             while n_out < nt and (t_eval[n_out] <= t or t >= tmax):
                 xx = (t_eval[n_out] - t_old) / h
                 for i in range(nx):
                     v = 0.0
-                    for r in range(Fd.shape[0] - 1, -1, -1):
-                        v += Fd[r, i]
-                        if (Fd.shape[0] - 1 - r) % 2 == 0:
-                            v *= xx
-                        else:
-                            v *= 1 - xx
-                    Y[n_out, i] = v + y[i]
+                    if dop:
+                        for r in range(Fd.shape[0] - 1, -1, -1):
+                            v += Fd[r, i]
+                            if (Fd.shape[0] - 1 - r) % 2 == 0:
+                                v *= xx
+                            else:
+                                v *= 1 - xx
+                        Y[n_out, i] = v + y[i]
+                    else:
+                        p = 1.0
+                        for r in range(Fd.shape[0]):
+                            p *= xx
+                            v += Fd[r, i] * p
+                        Y[n_out, i] = y[i] + h * v
                 n_out += 1
         for i in range(nx):
             y[i] = y_new[i]

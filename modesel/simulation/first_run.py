@@ -80,10 +80,10 @@ def die_with_parent_signal() -> None:
         pass
 
 
-def compile_in_parallel(built, method="compiled-DOP853") -> bool:
+def compile_in_parallel(built) -> bool:
     """Compile the effects' loads and then the kernel's reaction loads in a
-    child process and the kernel's right-hand side and its explicit loop
-    `method` ("compiled-DOP853" or "compiled-RK45") here, at once,
+    child process and the kernel's right-hand side and its explicit
+    Runge-Kutta loop (one for DOP853 and RK45) here, at once,
     when the loads have no numba cache yet (module doc), also for a scene
     without effects (a later one with effects finds them compiled). Returns
     True when it ran. The child is waited for, and killed if this process is
@@ -111,7 +111,7 @@ def compile_in_parallel(built, method="compiled-DOP853") -> bool:
         except OSError:         # the child has ended: the simulation compiles what it lacks
             pass
     try:
-        _compile_kernel(built, right_hand_side_cached, method)
+        _compile_kernel(built, right_hand_side_cached)
         child.wait()
     finally:
         if not child.stdin.closed:
@@ -122,9 +122,10 @@ def compile_in_parallel(built, method="compiled-DOP853") -> bool:
     return True
 
 
-def _compile_kernel(built, rhs_done, method="compiled-DOP853") -> None:
-    """Compile (or load) the kernel's right-hand side and the loop of `method`
-    ("compiled-DOP853" or "compiled-RK45") for
+def _compile_kernel(built, rhs_done) -> None:
+    """Compile (or load) the kernel's right-hand side and its explicit
+    Runge-Kutta loop (`kernel.runge_kutta`, run here as DOP853: the same
+    compiled specialisation serves RK45) for
     `built`'s equations with `NO_LOADS`: the argument types of the
     simulation's own, with or without effects; `rhs_done()` once the
     right-hand side is compiled (and in numba's cache)."""
@@ -137,11 +138,8 @@ def _compile_kernel(built, rhs_done, method="compiled-DOP853") -> None:
     if rhs.compilable:
         n = len(q0)
         x0 = np.concatenate([q0, qd0])
-        args = (x0, np.array([0.0, 1e-4]), 1e-4, 1e-6, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf))
-        if method == "compiled-RK45":
-            rhs.rk45(*args)
-        else:
-            rhs.dop853(*args, TABLE)
+        rhs.dop853(x0, np.array([0.0, 1e-4]), 1e-4, 1e-6, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf),
+                   TABLE)
 
 
 #: the stand-in problem `compile_reactions` compiles on: the kernel's argument

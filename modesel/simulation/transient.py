@@ -9,8 +9,7 @@ import numpy as np
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import channel_unit, channels
-from modesel.multibody.integrate import (choose_method, default_tolerances, explicit_method, integrate,
-                                        single_thread_blas)
+from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
 from modesel.simulation.assembly import Built, build
@@ -72,8 +71,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     rows = check_time_grid(tmax, dt, file=scene.path)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
-    # first run with compiled loads: loads and kernel at once (the explicit loop of the scene's tolerance)
-    first_run.compile_in_parallel(built, explicit_method(scene.solver.get("rtol")))
+    first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once
     requested = scene.solver.get("method", "auto")
     names = list(built.model.system.free)
     n = len(names)
