@@ -66,9 +66,9 @@ COMPILED_METHODS = (COMPILED_DOP853, COMPILED_RK45, COMPILED_RADAU)
 #: of any coordinate or rate over the run, relative to its range):
 #: steady_08, 100 s: DOP853 at rtol 1e-5 / atol 1e-6 15242 right-hand
 #: sides, error 9.7e-4; RK45 at 3e-6 / 3e-7 11252, 9.9e-4. steady_11p4,
-#: 20 s: 7316, 4.5e-4; 4226, 8.4e-4. turbine_wind_11p4 (its own 1e-5 /
-#: 1e-5), 20 s: 3458 against 1436 right-hand sides, errors of the same size
-#: per coordinate (`python3 benchmarks/bench_methods.py SCENE --tmax T`).
+#: 20 s: 7316, 4.5e-4; 4226, 8.4e-4. turbine_wind_11p4, both at its own
+#: 1e-5 / 1e-5, 20 s: 3458, 6.5e-2 (the drivetrain's rate); 1436, 1.9e-2
+#: (`python3 benchmarks/bench_methods.py SCENE --tmax T`).
 LOW_ORDER_RTOL = 1e-6
 #: stiffness ratio omega_max / omega_min from which "auto" integrates implicitly:
 #: where the two compiled methods cost the same. Measured (10 s each, the
