@@ -26,9 +26,10 @@ non-zero natural frequencies and N = omega_max * tmax / (2 pi) cycles of the
 fastest mode, an explicit Runge-Kutta method is used when r < STIFF_RATIO = 80
 (`explicit_method`: Dormand-Prince 5(4) at a relative tolerance of
 LOW_ORDER_RTOL = 1e-6 or looser, else DOP853; "compiled-" when the
-right-hand side runs compiled), else the implicit Radau IIA method, whose step is not limited by the fastest
-mode ("compiled-Radau" when the right-hand side runs compiled, else scipy's
-"Radau"). The choice and the numbers behind it are returned with the result.
+right-hand side runs compiled), else the implicit Radau IIA method, whose
+step is not limited by the fastest mode ("compiled-Radau" when the
+right-hand side runs compiled, else scipy's "Radau"). The choice and the
+numbers behind it are returned with the result.
 
 BLAS threads: the kernel's small matrix products (a few hundred rows) call
 the BLAS of numpy/scipy, whose worker threads only add synchronisation at

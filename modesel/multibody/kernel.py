@@ -862,7 +862,7 @@ def start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, wo
 
 
 @njit(cache=True, inline="always")
-def rk_stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
+def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
     K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
     for i in range(len(y)):
@@ -941,7 +941,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
             for i in range(nx):
                 K[0, i] = f[i]
             for s in range(1, n_stages):
-                code, idx = rk_stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                code, idx = _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                 nfev += 1
                 if code != OK:
                     return code, t + C[s] * h, nfev, n_out, idx
@@ -995,7 +995,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
         if n_out < nt and (t_eval[n_out] <= t or t >= tmax):
             if dop:
                 for s in range(n_stages + 1, A.shape[0]):
-                    code, idx = rk_stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                    code, idx = _stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                     nfev += 1
                     if code != OK:
                         return code, t_old + C[s] * h, nfev, n_out, idx

@@ -26,7 +26,8 @@ OpenFAST runs them, `fst.scene_from_fst`). TOML format (units as in OpenFAST inp
     [effects.wind]                   # wind, pitch, drivetrain, generator, aero, tower_drag
     speed = 11.4
     [solver]
-    method = "auto"                  # auto | compiled-DOP853 | compiled-RK45 | compiled-Radau | RK45 | DOP853 | Radau | BDF | LSODA
+    method = "auto"                  # auto | compiled-DOP853 | compiled-RK45 | compiled-Radau | RK45 | DOP853 |
+                                     # Radau | BDF | LSODA
     rtol = 1e-8                      # default 1e-8 (atol 1e-10) explicit, 1e-6 (atol 1e-6) implicit
     stability_check = true           # refuse statically unstable configurations (simulation/stability.py)
 """
@@ -69,7 +70,8 @@ INITIAL_KEYS = ("TTDspFA", "TTDspSS", "TTDspTwst", "RotSpeed", "Azimuth", "NacYa
                 "PtfmPitch", "BlPitch", "OoPDefl", "IPDefl", "equilibrium")
 SOLVER_KEYS = ("method", "rtol", "atol", "max_step", "stability_check")
 #: "auto" and multibody.integrate.METHODS (not imported here: scene loading stays light)
-SOLVER_METHODS = ("auto", "compiled-DOP853", "compiled-RK45", "compiled-Radau", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+SOLVER_METHODS = ("auto", "compiled-DOP853", "compiled-RK45", "compiled-Radau", "RK45", "DOP853", "Radau", "BDF",
+                  "LSODA")
 ANGLE_KEYS = ("Azimuth", "NacYaw", "PtfmPitch", "BlPitch", "TTDspTwst")
 
 

@@ -268,7 +268,8 @@ class BladeAerodynamics(Effect):
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
                 T_band.shape[1], L_band.shape[1]]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
-        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near) + list(T_first) + list(L_first)
+        ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
+        ints += list(T_first) + list(L_first)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
@@ -512,8 +513,9 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset
     f_a = f_n,a e_n,a + f_t,a e_t,a [N/m] and the pitching moments cm_scale
     fm_a e_z,a [N m/m] (e_z = e_t x e_n, the annulus z axis of the deflected
     section, AeroDyn's BEM_Mod 1) lumped to K points, F_p = sum_a L_pa f_a
-    and M_p = sum_a L_pa m_a (L in banded rows, `row_bands`), and with the moment of the point's offset
-    from the blade axis, d_p x F_p (d_p = R_blade offset[p]), put on node
+    and M_p = sum_a L_pa m_a (L in banded rows, `row_bands`: L_pa =
+    L[p, a - first[p]]), and with the moment of the point's offset from the
+    blade axis, d_p x F_p (d_p = R_blade offset[p]), put on node
     near[p] as forces[b, near[p], 3:6] (the engine applies a node moment
     through the body's angular velocity: all rigid coordinates). The blade's
     elastic coordinates j get its work through ElastoDyn's partial angular
