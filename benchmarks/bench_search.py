@@ -1,9 +1,9 @@
 """Search throughput: trials per minute of `modesel run --n-jobs J` for
 J = 1..N (N = the cores of this machine, `os.cpu_count()`) on the tower
 free-decay study and the full-turbine study, and the speed-up over J = 1;
-then two `modesel worker` processes on one study in a throwaway PostgreSQL
-server against one worker (skipped, with the reason, when PostgreSQL or
-psycopg2 is missing).
+then two `modesel worker` processes (one process each) on one study in a
+throwaway PostgreSQL server against one worker, for each study (skipped,
+with the reason, when PostgreSQL or psycopg2 is missing).
 
 Run: python3 benchmarks/bench_search.py [--tower-sets 60] [--turbine-sets 8]
      [--max-jobs N | --jobs 1,2,4,8,16] [--skip-tower] [--skip-turbine] [--skip-postgres]
@@ -166,19 +166,23 @@ def throwaway_postgres():
 
 
 def bench_postgres(label: str, study: Path, n_sets: int) -> list:
-    """One `modesel worker` doing `n_sets` against two doing half each, at once."""
+    """One `modesel worker` doing `n_sets` against two doing half each, at once
+    (one process each, sharing one reference cache, built before timing)."""
     rows = []
-    with full_budget_copy(study) as copy, throwaway_postgres() as db:
+    with full_budget_copy(study) as copy, throwaway_postgres() as db, \
+            tempfile.TemporaryDirectory(prefix="bench-search-cache-") as cache:
         name = study_name(study)
-        url = db("warmup")                      # compile, load once (not timed)
-        modesel("worker", str(copy), "--storage", url, "--n-trials", "1")
+        url = db("warmup")                      # compile, load, build the reference once (not timed)
+        modesel("worker", str(copy), "--storage", url, "--n-trials", "1", "--n-jobs", "1", "--cache", cache)
         for n_workers in (1, 2):
             url = db(f"workers{n_workers}")
             share = [n_sets // n_workers + (1 if i < n_sets % n_workers else 0) for i in range(n_workers)]
             t0 = time.perf_counter()
             with ThreadPoolExecutor(n_workers) as pool:      # the worker processes run at once
-                list(pool.map(lambda n: modesel("worker", str(copy), "--storage", url, "--n-trials", str(n)),
-                              share))
+                # one process per worker: the study file's own [run] n_jobs (2 for the tower study)
+                # would run 2 processes per worker and make "1 worker" a 2-process run
+                list(pool.map(lambda n: modesel("worker", str(copy), "--storage", url, "--n-trials", str(n),
+                                                "--n-jobs", "1", "--cache", cache), share))
             wall = time.perf_counter() - t0
             rows.append((label, f"{n_workers} worker{'s' if n_workers > 1 else ''} (PostgreSQL)",
                          search_rates(url, name), wall))
@@ -241,7 +245,10 @@ def main_bench() -> None:
         rows += bench_jobs("turbine", STUDIES["turbine"], a.turbine_sets, jobs)
     if not a.skip_postgres:
         try:
-            rows += bench_postgres("tower", STUDIES["tower"], a.tower_sets)
+            if not a.skip_tower:
+                rows += bench_postgres("tower", STUDIES["tower"], a.tower_sets)
+            if not a.skip_turbine:
+                rows += bench_postgres("turbine", STUDIES["turbine"], a.turbine_sets)
         except RuntimeError as exc:
             print(f"PostgreSQL mode skipped: {exc}")
     print()

@@ -441,6 +441,36 @@ def test_unreachable_storage_is_a_user_error(tmp_path):
         assert "secret" not in str(exc) and "\n" not in str(exc)
 
 
+def test_workers_creating_the_schema_at_once_retry(monkeypatch):
+    """Two workers opening an empty PostgreSQL database at once both create
+    the schema; the loser gets a unique violation or PostgreSQL's
+    DuplicateTable ("relation ... already exists", a ProgrammingError) and
+    opens the storage again, finding the tables made. Any other programming
+    error stays one user error."""
+    import sqlalchemy.exc
+
+    from modesel.study.search import storage as st
+    calls = []
+
+    def rdb(url, **kw):
+        calls.append(url)
+        if len(calls) == 1:
+            raise sqlalchemy.exc.ProgrammingError("CREATE TABLE studies", {},
+                                                  Exception('relation "studies" already exists'))
+        if len(calls) == 2:
+            raise sqlalchemy.exc.IntegrityError("INSERT", {}, Exception("duplicate key value"))
+        return "opened"
+    monkeypatch.setattr(optuna.storages, "RDBStorage", rdb)
+    monkeypatch.setattr(st.time, "sleep", lambda s: None)
+    assert st.open_storage("postgresql://u@127.0.0.1:5/db") == "opened" and len(calls) == 3
+
+    def broken(url, **kw):
+        raise sqlalchemy.exc.ProgrammingError("SELECT", {}, Exception("permission denied for table studies"))
+    monkeypatch.setattr(optuna.storages, "RDBStorage", broken)
+    with pytest.raises(ModeselError, match="cannot open storage: .*permission denied"):
+        st.open_storage("postgresql://u@127.0.0.1:5/db")
+
+
 def test_search_space_params_round_trip(tmp_path):
     path = make_study(tmp_path, extra="""
 [search.fields.tower_fa.params.test_rich]

@@ -109,9 +109,14 @@ def open_storage(url, *, log=None):
             try:
                 return optuna.storages.RDBStorage(sqlalchemy_url(url), heartbeat_interval=20,
                                                   grace_period=60, **_retry_once())
-            except sqlalchemy.exc.IntegrityError:
+            except (sqlalchemy.exc.IntegrityError, sqlalchemy.exc.ProgrammingError) as exc:
                 # two workers creating the schema of an empty database at once:
-                # one wins, the other retries and finds the tables made
+                # one wins, the other (a unique violation, or PostgreSQL's
+                # DuplicateTable "relation ... already exists") retries and
+                # finds the tables made
+                if isinstance(exc, sqlalchemy.exc.ProgrammingError) and "already exists" not in str(exc):
+                    msg = str(exc).strip().splitlines()[0]
+                    raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
                 time.sleep(0.2 * (attempt + 1))
             except (ImportError, ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
                 msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
