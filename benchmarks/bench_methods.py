@@ -4,7 +4,7 @@ compiled-DOP853 at rtol 1e-10 / atol 1e-11. The error is the largest
 difference of any free coordinate (or its rate) over the run, relative to
 that coordinate's range (a rate: its range or largest magnitude), so a
 coordinate that barely moves does not hide. Backs `integrate.LOW_ORDER_RTOL`
-and the OpenFAST case's tolerances (`simulation.fst.SOLVER`).
+and the OpenFAST case's tolerances with AeroDyn (`simulation.fst.SOLVER_BEM`).
 
     python3 benchmarks/bench_methods.py [SCENE] [--tmax 20]
     (default SCENE: the OpenFAST case steady_08)

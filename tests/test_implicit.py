@@ -97,7 +97,8 @@ def test_compiled_radau_conserves_energy_without_damping():
 def test_auto_choice_by_stiffness_ratio():
     """"auto": compiled-Radau from STIFF_RATIO on (cosine:20 per tower
     direction has a ratio of about 2100), below it compiled-DOP853, or
-    compiled-RK45 from a relative tolerance of LOW_ORDER_RTOL on; scipy's
+    compiled-RK45 for kinked (BEM) loads from a relative tolerance of
+    LOW_ORDER_RTOL on; scipy's
     names when the right-hand side does not run compiled; a forced method is
     kept."""
     rhs = build(load_scene(f"{SCENES}/paper_3dof_land.toml")).rhs()
@@ -108,10 +109,11 @@ def test_auto_choice_by_stiffness_ratio():
     assert choose_method(stiff, "auto", None)[0] == "Radau"
     assert choose_method(soft, "auto", None)[0] == "DOP853"
     assert choose_method(stiff, COMPILED_DOP853, rhs) == (COMPILED_DOP853, pytest.approx(STIFF_RATIO + 1))
-    assert choose_method(soft, "auto", rhs, LOW_ORDER_RTOL)[0] == COMPILED_RK45
-    assert choose_method(soft, "auto", rhs, 0.5 * LOW_ORDER_RTOL)[0] == COMPILED_DOP853
-    assert choose_method(soft, "auto", None, LOW_ORDER_RTOL)[0] == "RK45"
-    assert choose_method(stiff, "auto", rhs, LOW_ORDER_RTOL)[0] == COMPILED_RADAU
+    assert choose_method(soft, "auto", rhs, LOW_ORDER_RTOL, kinked=True)[0] == COMPILED_RK45
+    assert choose_method(soft, "auto", rhs, LOW_ORDER_RTOL)[0] == COMPILED_DOP853           # smooth
+    assert choose_method(soft, "auto", rhs, 0.5 * LOW_ORDER_RTOL, kinked=True)[0] == COMPILED_DOP853
+    assert choose_method(soft, "auto", None, LOW_ORDER_RTOL, kinked=True)[0] == "RK45"
+    assert choose_method(stiff, "auto", rhs, LOW_ORDER_RTOL, kinked=True)[0] == COMPILED_RADAU
 
 
 def test_scene_solver_methods_are_the_integrator_methods():
