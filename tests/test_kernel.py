@@ -6,7 +6,7 @@ The first run compiles the kernel (numba, cached on disk afterwards)."""
 import numpy as np
 import pytest
 
-from modesel.errors import SimulationDiverged
+from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import FieldModes, ModeSet
 from modesel.multibody import kernel
 from modesel.multibody.bodies import FlexibleBody, Joint, RigidBody, Rotation, Shortening
@@ -227,20 +227,19 @@ def test_compiled_rk45_equals_solve_ivp(turbine):
     assert np.abs(compiled.q - exact.q).max() < 1e-4 * np.ptp(exact.q[:, 0])
 
 
-def test_compiled_divergence_detected(turbine):
+@pytest.mark.parametrize("method", ["compiled-DOP853", "compiled-RK45"])
+def test_compiled_divergence_detected(turbine, method):
     """Buckling tower (gravity x 1e4) and a tight bound stop with SimulationDiverged."""
     ms = ModeSet({"tower_fa": FieldModes("elastodyn", 1)})
     model = build_turbine(turbine, ms)
     model.system.gravity *= 1e4
     rhs = KaneEquations(model.system).compiled_rhs()
     with pytest.raises(SimulationDiverged) as info:
-        integrate(rhs, np.array([0.1]), np.array([0.0]), 20.0, 0.01, bounds=np.array([40.0]),
-                  method="compiled-DOP853")
+        integrate(rhs, np.array([0.1]), np.array([0.0]), 20.0, 0.01, bounds=np.array([40.0]), method=method)
     assert 0.0 < info.value.time < 20.0
     rhs = KaneEquations(build_turbine(turbine, ms).system).compiled_rhs()
     with pytest.raises(SimulationDiverged) as info:
-        integrate(rhs, np.array([1.0]), np.array([0.0]), 5.0, 0.01, bounds=np.array([0.5]),
-                  method="compiled-DOP853")
+        integrate(rhs, np.array([1.0]), np.array([0.0]), 5.0, 0.01, bounds=np.array([0.5]), method=method)
     assert "beyond its physical bound" in str(info.value)
 
 
@@ -306,6 +305,9 @@ def test_scipy_paths_of_the_compiled_rhs(turbine):
     assert np.abs(runs["poly"].q - runs["function"].q).max() < 1e-9
     radau = integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01, method="Radau")
     assert np.abs(radau.q - runs["poly"].q).max() < 1e-5
+    for method in ("compiled-DOP853", "compiled-RK45", "compiled-Radau"):   # a Python function: a user error
+        with pytest.raises(ModeselError, match=f"{method} needs a compiled right-hand side"):
+            integrate(rhs, np.array([1.0, -0.5]), np.zeros(2), 3.0, 0.01, method=method)
 
 
 def test_lumping_keeps_frames_or_whole_subtrees():
