@@ -96,6 +96,11 @@ class Built:
         """Effects that add loads at every right-hand side."""
         return [e for e in self.effects if e.loads]
 
+    @property
+    def kinked(self) -> bool:
+        """Whether an acting effect's loads have kinks in the state (`Effect.kinked`)."""
+        return any(e.kinked for e in self.acting)
+
     def frames(self, q_all, qd_all):
         """Body frames at (q_all, qd_all), shared by the effects (`FrameCache`)."""
         return self.frame_cache(q_all, qd_all)

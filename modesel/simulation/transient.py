@@ -93,9 +93,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
     # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
     omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
-    # BEM on linearly interpolated polars: loads with kinks (integrate.LOW_ORDER_RTOL)
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs,
-                                  scene.solver.get("rtol"), kinked=built.effect("aero") is not None)
+                                  scene.solver.get("rtol"), kinked=built.kinked)
     rtol, atol = default_tolerances(method)
     try:
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,

@@ -142,6 +142,6 @@ def assert_method_justified(run: Run, sc, ms=None) -> None:
     ratio = detected_ratio(sc, ms)
     assert run.ratio == np.float64(run.ratio) and abs(run.ratio / ratio - 1) < 1e-6, (run.ratio, ratio)
     compiled = runs_compiled(run.built.rhs())
-    explicit = explicit_method(sc.solver.get("rtol"), compiled, kinked=run.built.effect("aero") is not None)
+    explicit = explicit_method(sc.solver.get("rtol"), compiled, kinked=run.built.kinked)
     implicit = "compiled-Radau" if compiled else "Radau"
     assert run.method == (implicit if ratio >= STIFF_RATIO else explicit), (run.method, ratio)

@@ -131,6 +131,7 @@ def wind_of(effect, built):
 class BladeAerodynamics(Effect):
     name = "aero"
     loads = True
+    kinked = True             # the polars are interpolated linearly in the angle of attack
     CHANNELS = ("RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp")
     OPTIONS = {
         "aerodyn": Option("path", None, "AeroDyn main file"),

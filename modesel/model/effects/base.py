@@ -73,6 +73,10 @@ class Effect:
     name = ""
     OPTIONS: dict = {}
     loads = False             # __call__ acts at every right-hand side
+    #: its loads have kinks in the state (e.g. BEM on linearly interpolated
+    #: polars), which "auto" integrates with a lower-order explicit method
+    #: (`integrate.LOW_ORDER_RTOL`)
+    kinked = False
     CHANNELS: tuple = ()      # the names `channels` returns (OpenFAST's)
     default_on = False        # switched on when the scene does not mention it
 
