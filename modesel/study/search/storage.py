@@ -93,6 +93,16 @@ def _retry_once() -> dict:
     return {"failed_trial_callback": optuna.storages.RetryFailedTrialCallback(max_retry=1)}
 
 
+def _schema_race(exc) -> bool:
+    """Whether `exc` is the loser's error when two workers create the schema
+    of an empty database at once (a unique violation, or PostgreSQL's
+    DuplicateTable "relation ... already exists"): it retries and finds the
+    tables made."""
+    import sqlalchemy.exc
+    return isinstance(exc, sqlalchemy.exc.IntegrityError) or (
+        isinstance(exc, sqlalchemy.exc.ProgrammingError) and "already exists" in str(exc))
+
+
 def open_storage(url, *, log=None):
     """An Optuna storage for `url`: a SQLAlchemy URL ('scheme://...') gives an
     RDB storage (with heartbeats, so the trials of a dead worker are failed
@@ -109,16 +119,10 @@ def open_storage(url, *, log=None):
             try:
                 return optuna.storages.RDBStorage(sqlalchemy_url(url), heartbeat_interval=20,
                                                   grace_period=60, **_retry_once())
-            except (sqlalchemy.exc.IntegrityError, sqlalchemy.exc.ProgrammingError) as exc:
-                # two workers creating the schema of an empty database at once:
-                # one wins, the other (a unique violation, or PostgreSQL's
-                # DuplicateTable "relation ... already exists") retries and
-                # finds the tables made
-                if isinstance(exc, sqlalchemy.exc.ProgrammingError) and "already exists" not in str(exc):
-                    msg = str(exc).strip().splitlines()[0]
-                    raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
-                time.sleep(0.2 * (attempt + 1))
             except (ImportError, ValueError, sqlalchemy.exc.SQLAlchemyError, OSError) as exc:
+                if _schema_race(exc):
+                    time.sleep(0.2 * (attempt + 1))
+                    continue
                 msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
                 raise ModeselError(f"cannot open storage: {msg}", file=mask_url(url)) from None
         raise ModeselError("cannot open storage: schema creation kept conflicting", file=mask_url(url))
