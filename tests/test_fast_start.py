@@ -233,8 +233,10 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
     """The first run's child compiles the reaction loads on a small stand-in
     problem (`first_run.STAND_IN_SCENE`) for the simulation's own: numba's
     types of the kernel's arguments (problem, work arrays, packed equations)
-    are the same for that scene, an OpenFAST case with BEM (its packed loads)
-    and a tower-only scene (`no_loads.NO_LOADS`), so the compiled loops serve them all."""
+    are the same for that scene, an OpenFAST case with BEM (its packed loads),
+    a tower-only scene (`no_loads.NO_LOADS`) and the turbine scene, whose
+    flexible bodies take the invariant route (`invariant_sums`), so the
+    compiled loops serve them all."""
     from numba import typeof
 
     from modesel.multibody.compiled import CompiledRHS
@@ -242,13 +244,18 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
     from modesel.simulation.api import build, load_scene
     from modesel.simulation.scene import scene_from_dict
     scenes = [scene_from_dict(first_run.STAND_IN_SCENE), load_scene(str(STEADY_08)),
-              load_scene(str(ROOT / "studies" / "scenes" / "paper_3dof_land.toml"))]
+              load_scene(str(ROOT / "studies" / "scenes" / "paper_3dof_land.toml")),
+              load_scene(str(ROOT / "studies" / "scenes" / "turbine_wind_11p4.toml"))]
     builts = [build(s, reactions=True) for s in scenes]
     kinds = set()
     for b in builts:
         for rhs in (b.rhs(all_rows=True), CompiledRHS(b.eq, b.linear, all_rows=True)):
             kinds.add(typeof((rhs.prob, rhs.rwork, rhs.packed.data, rhs.packed.work)))
     assert builts[1].rhs().has_loads and not builts[2].rhs().has_loads
+    # the OpenFAST case's bodies take the node sums (the invariant route's
+    # stand-in), the turbine scene's the invariants (its cfunc): one type
+    routes = [first_run.uses_invariants(b.eq) for b in builts]
+    assert routes[1] is False and routes[3] is True
     assert len(kinds) == 1
 
 
@@ -274,3 +281,28 @@ def test_first_run_compiled_in_parallel_gives_the_warm_run(tmp_path):
     for c in a.columns:
         x, y = a[c].to_numpy(float), b[c].to_numpy(float)
         assert np.all(np.abs(x - y) <= 1e-3 * (np.ptp(y) + np.abs(y).max()) + 1e-9), c
+
+
+def test_node_sums_alone_load_no_invariant_route():
+    """A system whose flexible bodies all take the node sums runs the kernel
+    with the invariant route's stand-in (`packing.invariant_function`): in a
+    fresh interpreter, before any numba cfunc exists, numba types it (its
+    typeof is registered by `packing`) and the invariant route's cfunc is
+    never loaded (about 35 ms saved)."""
+    code = ("import sys\n"
+            "import numpy as np\n"
+            "from modesel.model.template import build_turbine\n"
+            "from modesel.modeset import FieldModes, ModeSet\n"
+            "from modesel.multibody import kernel, packing\n"
+            "from modesel.multibody.kane import KaneEquations\n"
+            "from modesel.turbine.elastodyn import load_turbine\n"
+            "system = build_turbine(load_turbine('nrel5mw'), ModeSet({'tower_fa': FieldModes('elastodyn', 1)}),\n"
+            "                       free=('GeAz',)).system\n"
+            "eq = KaneEquations(system)\n"
+            "p = packing.pack(eq, invariants=False)\n"
+            "kernel.kinematics(np.zeros(eq.n_all), np.zeros(eq.n_all), p.data, p.work)\n"
+            "print('modesel.multibody.invariant_sums' in sys.modules)\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "False"

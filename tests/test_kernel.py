@@ -3,12 +3,14 @@ equations (kane.py): M and F equal to 1e-10 relative at random states,
 and the compiled DOP853 loop against scipy's solve_ivp on the same equations.
 
 The first run compiles the kernel (numba, cached on disk afterwards)."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import FieldModes, ModeSet
-from modesel.multibody import kernel
+from modesel.multibody import body_integrals, kernel, packing
 from modesel.multibody.bodies import FlexibleBody, Joint, RigidBody, Rotation, Shortening
 from modesel.turbine.elastodyn import load_turbine
 from modesel.multibody.kane import KaneEquations
@@ -124,6 +126,76 @@ def test_pendulum_chain_matches_reference():
     eq = check_against_reference(pendulum_chain(), np.random.default_rng(1))
     kinds = eq.packed_full.data[0][:, 1]
     assert list(kinds[-2:]) == [kernel.LUMPED, kernel.LUMPED]      # fin and cap lumped into link2
+
+
+def assemble_by_route(eq, invariants, q, qd, forces, gen):
+    """M, F of all coordinates with every flexible body forced onto one
+    route of the kernel (node sums or invariants, `body_integrals`)."""
+    p = packing.pack(eq, invariants=invariants)
+    fnodes = np.zeros((p.data[8].shape[0], 6))
+    flag = np.zeros(eq.n_bodies, np.int64)
+    for name, f in forces.items():
+        first, count = p.node_start[name]
+        fnodes[first:first + count, :f.shape[1]] = f
+        flag[eq.body_index[name]] = 1
+    M, F = np.empty((eq.n_all, eq.n_all)), np.empty(eq.n_all)
+    kernel.assemble(q, qd, eq.gravity.astype(float), fnodes, flag, gen, p.data, p.work, M, F)
+    return M, F, p
+
+
+def fem_turbine(turbine, count=3):
+    fields = ("tower_fa", "tower_ss", "tower_torsion", "blade_flap", "blade_edge")
+    return build_turbine(turbine, ModeSet({f: FieldModes("fem", count) for f in fields}),
+                         free=("GeAz", "DrTr")).system
+
+
+@pytest.mark.parametrize("case", ["pendulum_chain", "fem_turbine"])
+def test_invariant_route_equals_node_sums_and_reference(turbine, case):
+    """The invariants of a flexible body (`body_integrals`: node sums
+    expanded in q_e, qd_e at pack time) give the node sums' M and F to
+    round-off, with node forces and moments on every flexible body. The
+    chain's flexible arm has shapes with axial components, a full
+    shortening matrix, torsion and polar inertia; the fem turbine's tower
+    has torsion modes without shortening (ns < ne)."""
+    system = pendulum_chain() if case == "pendulum_chain" else fem_turbine(turbine)
+    eq = KaneEquations(system)
+    rng = np.random.default_rng(11)
+    for q, qd in random_states(eq, rng):
+        gen = rng.normal(size=eq.n_all) * 1e3
+        forces = {b.name: rng.normal(size=(len(b.node_mass), 6)) * 1e3 for b in system.flexible_bodies()}
+        M_node, F_node, p_node = assemble_by_route(eq, False, q, qd, forces, gen)
+        M_inv, F_inv, p_inv = assemble_by_route(eq, True, q, qd, forces, gen)
+        Mr, Fr = eq.evaluate_full_reference(q, qd, forces, gen)
+        assert_equal_rel(M_inv, M_node, "M: invariants against node sums")
+        assert_equal_rel(F_inv, F_node, "F: invariants against node sums")
+        assert_equal_rel(M_inv, Mr, "M: invariants against the reference")
+        assert_equal_rel(F_inv, Fr, "F: invariants against the reference")
+    used = p_inv.data[0][:, kernel.INV0]
+    assert np.all(p_node.data[0][:, kernel.INV0] == 0)
+    flexible = p_inv.data[0][:, kernel.KIND] == kernel.FLEX
+    assert flexible.any() and np.all(used[flexible] > 0)
+    if case == "fem_turbine":
+        tower = eq.body_index["tower"]
+        assert 0 < p_inv.data[0][tower, kernel.NS] < p_inv.data[0][tower, kernel.NE]
+
+
+def test_route_choice_by_cost(turbine):
+    """The packer takes the invariants where they are the cheaper: the
+    blades of the 214-node fem beam with 3 modes per field, not a blade of
+    17 nodes with 3 modes (an OpenFAST deck's), nor one whose S-S tensor
+    would exceed `MAX_ENTRIES` entries."""
+    eq = KaneEquations(fem_turbine(turbine))
+    blade = next(f for b, _, f in eq.bodies if b.name == "blade1")
+    assert len(blade.m) > 200 and body_integrals.choose_invariants(blade)
+
+    def body(n_nodes, ne):
+        S = np.ones((n_nodes, ne, ne))
+        return SimpleNamespace(idx=np.arange(ne), m=np.ones(n_nodes), S=S, eta=None)
+
+    assert not body_integrals.choose_invariants(body(17, 3))
+    assert body_integrals.choose_invariants(body(214, 8))
+    big = int(body_integrals.MAX_ENTRIES ** 0.25) + 1
+    assert not body_integrals.choose_invariants(body(2000, big))
 
 
 def test_pendulum_chain_analytic():

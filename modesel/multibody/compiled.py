@@ -36,15 +36,20 @@ class CompiledRHS:
     (`modesel.model.effects.compiled` packs them); state is modified in place
     (scratch and latched switches). channels: {output channel: (state index,
     scale)}: the effects' output channels, state[index] * scale after an
-    evaluation with state[channel_flag] set (`outputs`)."""
+    evaluation with state[channel_flag] set (`outputs`). packed: the arrays
+    of the kernel (default `eq.packed_full` or `eq.packed_free`; e.g.
+    `eq.pack_free(invariants=False)` to compile the kernel without loading
+    the invariant route, `simulation.first_run`)."""
 
-    def __init__(self, eq, linear=(), *, all_rows=False, loads=None, channels=None, channel_flag=-1):
+    def __init__(self, eq, linear=(), *, all_rows=False, loads=None, channels=None, channel_flag=-1, packed=None):
         self.eq = eq
         self.channels = dict(channels or {})
         self.channel_flag = int(channel_flag)
         if self.channels and (loads is None or self.channel_flag < 0):
             raise ValueError("output channels need loads and the index of their channel flag")
-        self.packed = eq.packed_full if all_rows else eq.packed_free
+        if packed is None:
+            packed = eq.packed_full if all_rows else eq.packed_free
+        self.packed = packed
         n, nf = eq.n_all, len(eq.free_idx)
         lin = list(linear)
         lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _ in lin], np.int64).reshape(-1, 2)
@@ -122,7 +127,7 @@ class CompiledRHS:
         over the times: (n_t, len(rows) + len(channels)), NaN throughout
         where an evaluation fails. The effects' latched switches advance with
         the times, as in an integration. Needs all_rows."""
-        if self.packed is not self.eq.packed_full:
+        if not self.packed.data[12].all():         # the active mask: every row
             raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
         t = np.atleast_1d(np.asarray(t, float))
         X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)

@@ -250,10 +250,15 @@ class KaneEquations:
     @cached_property
     def packed_free(self) -> Packed:
         """Kernel arrays computing the rows of free and prescribed coordinates."""
+        return self.pack_free()
+
+    def pack_free(self, invariants=None) -> Packed:
+        """`packed_free`, anew; invariants: as `packing.pack` (None: each
+        flexible body's cheaper route)."""
         active = np.zeros(self.n_all, bool)
         active[self.free_idx] = True
         active[self.presc_idx] = True
-        return pack(self, active)
+        return pack(self, active, invariants)
 
     @cached_property
     def _kernel_all_rows(self) -> CompiledRHS:

@@ -17,15 +17,21 @@ eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
   inertia, exact to round-off;
   node polar inertia keeps the flexible form of eq. A with t = [0, e_g]
   (no gyroscopic term, like the reference);
-- flexible-body node sums are formed in the body frame and the 6+ne blocks
-  rotated once (p = R s, B = R B_loc; B^T B is invariant); the O(N ne^2)
-  sums are two matrix products;
+- flexible-body sums are formed in the body frame and the 6+ne blocks
+  rotated once (p = R s, B = R B_loc; B^T B is invariant): over the N
+  nodes (O(N ne^2), two matrix products), or, where cheaper, from the
+  body's invariants formed at pack time (`body_integrals`; the cfunc
+  `invariant_sums`, called through a pointer in the packed data, outside
+  this file: compiled apart, it does not lengthen the compile of every loop
+  that calls `_flexible`);
 - the mass matrix of the free coordinates is solved by Cholesky.
 
 Kernels take the packed arrays `data` and reusable `work` arrays (tuples).
 All compiled code of the engine's equations is in this one file (numba's
 on-disk cache of a function holds the functions it calls and is invalidated
-only by a change of its own file); the Python front is `compiled.CompiledRHS`.
+only by a change of its own file), but for the functions it receives as
+pointers (the invariant route, the effects' loads), whose code it does not
+hold; the Python front is `compiled.CompiledRHS`.
 """
 from __future__ import annotations
 
@@ -45,8 +51,13 @@ _FAST = {"reassoc", "contract", "nsz"}
 
 # body_int columns
 (PARENT, KIND, ROT0, NROT, SH0, NSH, COL0, NCOL, NODE0, NNODE, NE, E0, HAS_S, HAS_JP, HAS_ETA, HAS_A,
- PHI0, S0, ETA0, KD0) = range(20)
-N_INT = 20
+ PHI0, S0, ETA0, KD0, INV0, NS, SIX0) = range(23)
+N_INT = 23
+# INV0: offset of a flexible body's invariants in the float pool (0: it
+# takes the node sums), NS its number of shortening modes, SIX0 the offset of
+# its header for the invariant route in the int pool (`invariant_sums`:
+# ne, ns, first node, node count, INV0, PHI0, shortening modes, position of
+# each elastic coordinate among them)
 # body kinds
 SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
 # body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
@@ -67,6 +78,12 @@ N_FLOAT = 40
 # loads passes `no_loads.no_loads`, which adds none.
 _F1, _F2, _F3, _I1 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1]
 LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1)
+
+# signature of the invariant route of a flexible body (`invariant_sums.py`,
+# called by `_flexible` through the pointer in data[13]): (offset of the
+# body's header in the int pool, loaded, int pool, float pool, scratch with
+# its inputs and outputs, node forces) -> mass
+INVARIANT_SIG = types.float64(types.int64, types.int64, _I1, _F1, _F1, _F2)
 
 
 # ------------------------------------------------------------------ small helpers
@@ -312,24 +329,18 @@ def _add_node_forces(b, fnodes, data, work, fy):
 @njit(cache=True, fastmath=_FAST)
 def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     """Generalised mass Mb and force fy of a flexible body in y = [v; w; qd_e]
-    (Wallrapp form, eq. 11-19 and A2-A19): shape integrals summed over the
-    nodes at the deformed configuration, with axial shortening (D4), node
-    polar inertia and torsion. Formed in the body frame (s, B_loc), then
-    rotated (p = R s, B = R B_loc); the O(N ne^2) sums are matrix products."""
-    bi, bf, ipool = data[0], data[1], data[2]
-    s0, nm, Jp, fpool = data[8], data[9], data[10], data[11]
+    (Wallrapp form, eq. 11-19 and A2-A19) at the deformed configuration, with
+    axial shortening (D4), node polar inertia and torsion. The sums are
+    formed in the body frame (s, B_loc), over the nodes (`_node_sums`) or
+    from the body's invariants (`invariant_sums`, `body_integrals`; the
+    packer picks the cheaper), then rotated once (p = R s, B = R B_loc)."""
+    bi, bf, ipool, fpool = data[0], data[1], data[2], data[11]
     R, vec = work[0][b], work[1][b]
-    e_scr, B3, nodes = work[6], work[7], work[12]
+    e_scr, B3 = work[6], work[7]
     ne, e0, a0, N = bi[b, NE], bi[b, E0], bi[b, NODE0], bi[b, NNODE]
-    has_S, has_jp, has_eta = bi[b, HAS_S], bi[b, HAS_JP], bi[b, HAS_ETA]
+    has_eta = bi[b, HAS_ETA]
     qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
     Ct, Cr = B3[0], B3[1]
-    N3 = 3 * N
-    Phi = fpool[bi[b, PHI0]:bi[b, PHI0] + N3 * ne].reshape((N3, ne))       # row 3k+i: node k, axis i
-    B = nodes[0, :N3 * ne].reshape((N3, ne))                               # B_loc (body frame)
-    W = nodes[1, :N3 * (ne + 1)].reshape((N3, ne + 1))                     # [m_k B_loc, load_k]
-    Sq = nodes[2, :N * ne]
-    s, pdv, load = nodes[3, :N3], nodes[4, :N3], nodes[5, :N3]
     for l in range(ne):
         qe[l] = q[ipool[e0 + l]]
         qde[l] = qd[ipool[e0 + l]]
@@ -342,6 +353,113 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     _mtv(R, gvec, gb)
     for i in range(3):
         ax[i] = bf[b, AXIS + i]
+    Irr = work[11][1]
+    Mee = work[15][:ne, :ne]
+    if bi[b, INV0] > 0:
+        # the invariant route, compiled apart and called through its pointer
+        # (invariant_sums.py); inputs and outputs through the start of its scratch
+        scr = work[14]
+        for i in range(3):
+            for j in range(3):
+                scr[3 * i + j] = R[i, j]
+            scr[9 + i], scr[12 + i], scr[15 + i], scr[18 + i], scr[21 + i] = wb[i], alb[i], ab[i], gb[i], ax[i]
+        for l in range(ne):
+            scr[24 + l] = qe[l]
+            scr[24 + ne + l] = qde[l]
+        mass = data[13](bi[b, SIX0], fflag[b], ipool, fpool, scr, fnodes)
+        o = 24 + 2 * ne
+        for i in range(3):
+            mp[i], ft[i], fr[i] = scr[o + i], scr[o + 3 + i], scr[o + 6 + i]
+            for j in range(3):
+                Irr[i, j] = scr[o + 9 + 3 * i + j]
+            for l in range(ne):
+                Ct[i, l] = scr[o + 18 + i * ne + l]
+                Cr[i, l] = scr[o + 18 + 3 * ne + i * ne + l]
+        o += 18 + 6 * ne
+        for l in range(ne):
+            fe[l] = scr[o + l]
+            for m_ in range(ne):
+                Mee[l, m_] = scr[o + ne + l * ne + m_]
+    else:
+        mass = _node_sums(b, fnodes, fflag, data, work, Mee)
+    if fflag[b]:
+        # node moments m_k: work through the body's angular velocity and, about
+        # the beam axis, through the torsion shapes eta (t = [0, e_g, eta]); the
+        # bodies carry no bending slopes, so the bending part of a node moment
+        # (m_k . (e_axis x dPhi_k/ds)) is the loading effect's own generalised
+        # force (effects/aero.py `node_moments`)
+        for k in range(N):
+            _mtv(R, fnodes[a0 + k, 3:6], fk)
+            for i in range(3):
+                fr[i] += fk[i]
+            if has_eta:
+                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
+                ma = fk[0] * ax[0] + fk[1] * ax[1] + fk[2] * ax[2]
+                for l in range(ne):
+                    fe[l] += ma * eta[k, l]
+    # elastic forces (A16-A19)
+    KD = fpool[bi[b, KD0]:bi[b, KD0] + 2 * ne * ne].reshape((2, ne, ne))
+    for l in range(ne):
+        x = 0.0
+        for m_ in range(ne):
+            x += KD[0, l, m_] * qe[m_] + KD[1, l, m_] * qde[m_]
+        fe[l] -= x
+    # rotate to inertial axes: p = R s, B = R B_loc
+    _mv(R, mp, mpi)
+    for i in range(3):
+        for j in range(3):
+            Mb[i, j] = mass if i == j else 0.0
+            x = 0.0
+            for k in range(3):
+                for l in range(3):
+                    x += R[i, k] * Irr[k, l] * R[j, l]
+            Mb[3 + i, 3 + j] = x
+    Mb[3, 0], Mb[3, 1], Mb[3, 2] = 0.0, -mpi[2], mpi[1]
+    Mb[4, 0], Mb[4, 1], Mb[4, 2] = mpi[2], 0.0, -mpi[0]
+    Mb[5, 0], Mb[5, 1], Mb[5, 2] = -mpi[1], mpi[0], 0.0
+    for i in range(3):
+        for j in range(3):
+            Mb[j, 3 + i] = Mb[3 + i, j]
+    for l in range(ne):
+        for i in range(3):
+            ct = R[i, 0] * Ct[0, l] + R[i, 1] * Ct[1, l] + R[i, 2] * Ct[2, l]
+            cr = R[i, 0] * Cr[0, l] + R[i, 1] * Cr[1, l] + R[i, 2] * Cr[2, l]
+            Mb[i, 6 + l] = ct
+            Mb[6 + l, i] = ct
+            Mb[3 + i, 6 + l] = cr
+            Mb[6 + l, 3 + i] = cr
+        for m_ in range(l, ne):
+            Mb[6 + l, 6 + m_] = Mee[l, m_]
+            Mb[6 + m_, 6 + l] = Mee[l, m_]
+        fy[6 + l] = fe[l]
+    for i in range(3):
+        fy[i] = R[i, 0] * ft[0] + R[i, 1] * ft[1] + R[i, 2] * ft[2]
+        fy[3 + i] = R[i, 0] * fr[0] + R[i, 1] * fr[1] + R[i, 2] * fr[2]
+
+
+@njit(cache=True, fastmath=_FAST, inline="always")
+def _node_sums(b, fnodes, fflag, data, work, Mee):
+    """The body-frame sums of `_flexible` over the N nodes at the deformed
+    configuration (O(N ne^2), two matrix products): writes m p, I_rr, C_t,
+    C_r, f_t, f_r, M_ee and f_e (before the node moments and the elastic
+    forces) into `work`; returns the body's mass."""
+    bi, ipool = data[0], data[2]
+    s0, nm, Jp, fpool = data[8], data[9], data[10], data[11]
+    R = work[0][b]
+    e_scr, B3, nodes = work[6], work[7], work[12]
+    ne, a0, N = bi[b, NE], bi[b, NODE0], bi[b, NNODE]
+    has_S, has_jp, has_eta = bi[b, HAS_S], bi[b, HAS_JP], bi[b, HAS_ETA]
+    qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
+    Ct, Cr = B3[0], B3[1]
+    N3 = 3 * N
+    Phi = fpool[bi[b, PHI0]:bi[b, PHI0] + N3 * ne].reshape((N3, ne))       # row 3k+i: node k, axis i
+    B = nodes[0, :N3 * ne].reshape((N3, ne))                               # B_loc (body frame)
+    W = nodes[1, :N3 * (ne + 1)].reshape((N3, ne + 1))                     # [m_k B_loc, load_k]
+    Sq = nodes[2, :N * ne]
+    s, pdv, load = nodes[3, :N3], nodes[4, :N3], nodes[5, :N3]
+    loc = work[10]
+    wb, alb, ab, gb, mp, ft, fr, ax, fk = (loc[0], loc[1], loc[2], loc[3], loc[4], loc[5], loc[6],
+                                           loc[11], loc[12])
     Irr = work[11][1]
     # deformed positions s = s0 + Phi q_e - 1/2 (q_e^T S_k q_e) e_axis and
     # B_loc = Phi - e_axis (S_k q_e)^T (first paper D4; second paper eq. 3)
@@ -427,9 +545,10 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
             Cr[i, l] = GW[3 + i, l]
     # sum_k m_k B_k^T B_k (A7), with sum_k B_k^T load_k (A16)
     BW = np.dot(B.T, W)
-    Mee = BW[:, :ne]
     for l in range(ne):
         fe[l] = BW[l, ne]
+        for m_ in range(ne):
+            Mee[l, m_] = BW[l, m_]
     if has_jp:
         # node polar inertia with t = [0, e_g, eta] (torsion), eq. A
         eal = ax[0] * alb[0] + ax[1] * alb[1] + ax[2] * alb[2]
@@ -450,59 +569,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
                     fe[l] -= jp * eal * el
                     for m_ in range(ne):
                         Mee[l, m_] += jp * el * eta[k, m_]
-    if fflag[b]:
-        # node moments m_k: work through the body's angular velocity and, about
-        # the beam axis, through the torsion shapes eta (t = [0, e_g, eta]); the
-        # bodies carry no bending slopes, so the bending part of a node moment
-        # (m_k . (e_axis x dPhi_k/ds)) is the loading effect's own generalised
-        # force (effects/aero.py `node_moments`)
-        for k in range(N):
-            _mtv(R, fnodes[a0 + k, 3:6], fk)
-            for i in range(3):
-                fr[i] += fk[i]
-            if has_eta:
-                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
-                ma = fk[0] * ax[0] + fk[1] * ax[1] + fk[2] * ax[2]
-                for l in range(ne):
-                    fe[l] += ma * eta[k, l]
-    # elastic forces (A16-A19)
-    KD = fpool[bi[b, KD0]:bi[b, KD0] + 2 * ne * ne].reshape((2, ne, ne))
-    for l in range(ne):
-        x = 0.0
-        for m_ in range(ne):
-            x += KD[0, l, m_] * qe[m_] + KD[1, l, m_] * qde[m_]
-        fe[l] -= x
-    # rotate to inertial axes: p = R s, B = R B_loc
-    _mv(R, mp, mpi)
-    for i in range(3):
-        for j in range(3):
-            Mb[i, j] = mass if i == j else 0.0
-            x = 0.0
-            for k in range(3):
-                for l in range(3):
-                    x += R[i, k] * Irr[k, l] * R[j, l]
-            Mb[3 + i, 3 + j] = x
-    Mb[3, 0], Mb[3, 1], Mb[3, 2] = 0.0, -mpi[2], mpi[1]
-    Mb[4, 0], Mb[4, 1], Mb[4, 2] = mpi[2], 0.0, -mpi[0]
-    Mb[5, 0], Mb[5, 1], Mb[5, 2] = -mpi[1], mpi[0], 0.0
-    for i in range(3):
-        for j in range(3):
-            Mb[j, 3 + i] = Mb[3 + i, j]
-    for l in range(ne):
-        for i in range(3):
-            ct = R[i, 0] * Ct[0, l] + R[i, 1] * Ct[1, l] + R[i, 2] * Ct[2, l]
-            cr = R[i, 0] * Cr[0, l] + R[i, 1] * Cr[1, l] + R[i, 2] * Cr[2, l]
-            Mb[i, 6 + l] = ct
-            Mb[6 + l, i] = ct
-            Mb[3 + i, 6 + l] = cr
-            Mb[6 + l, 3 + i] = cr
-        for m_ in range(l, ne):
-            Mb[6 + l, 6 + m_] = Mee[l, m_]
-            Mb[6 + m_, 6 + l] = Mee[l, m_]
-        fy[6 + l] = fe[l]
-    for i in range(3):
-        fy[i] = R[i, 0] * ft[0] + R[i, 1] * ft[1] + R[i, 2] * ft[2]
-        fy[3 + i] = R[i, 0] * fr[0] + R[i, 1] * fr[1] + R[i, 2] * fr[2]
+    return mass
 
 
 @njit(cache=True, inline="always")

@@ -6,25 +6,35 @@
     (body_int (nb, N_INT), body_float (nb, N_FLOAT), int pool, rotation axes,
      rotation coefficients (n_rot, n), rotation offsets, translation matrices
      A (nb, 3, n), shortening matrices G (nb, ns, ns), node positions s0
-     (N_nodes, 3), node masses, node polar inertias, float pool, active mask)
+     (N_nodes, 3), node masses, node polar inertias, float pool, active mask,
+     invariant route: `invariant_sums` or a stand-in, `invariant_function`)
 
 (the int pool holds each body's Jacobian columns, elastic coordinates and
-shortening coordinates; the float pool each flexible body's Phi (N,3,ne),
-S (N,ne,ne), eta (N,ne), K and D, contiguous), and `work`, the arrays the
-kernels write (body frames: R (nb+1,3,3) and vec (nb+1,5,3) = [r, v, w,
-a_bias, alpha_bias] with slot nb the ground; Jacobians; scratch).
+shortening coordinates, and for a body on the invariant route its
+shortening modes; the float pool each flexible body's Phi (N,3,ne),
+S (N,ne,ne), eta (N,ne), K and D, and its invariants, contiguous), and
+`work`, the arrays the kernels write (body frames: R (nb+1,3,3) and vec
+(nb+1,5,3) = [r, v, w, a_bias, alpha_bias] with slot nb the ground;
+Jacobians; scratch, the last the flexible bodies' M_ee and the invariant
+route's intermediate sums). Each flexible body takes the node sums or its
+invariants, whichever is the cheaper (`body_integrals.choose_invariants`).
 Rigid bodies on constant joints are lumped here (`lumping.lump`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
+import ctypes
 
-from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
-                                          INERTIA, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE, NNODE,
-                                          NODE0, NROT, NSH, OFF, PARENT, PHI0, POLAR, R0, RIGID, ROT0, S0,
-                                          SH0, SH_E, SKIP)
+import numba.experimental.function_type  # noqa: F401  (numba's typeof of `_Unused`)
+import numpy as np
+from numba import types
+
+from modesel.multibody.kernel import (INVARIANT_SIG, AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
+                                          INERTIA, INV0, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE,
+                                          NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0, POLAR, R0, RIGID,
+                                          ROT0, S0, SH0, SH_E, SIX0, SKIP)
+from modesel.multibody import body_integrals
 from modesel.multibody.lumping import RigidPart, constant_placement, lump, rigid_equivalent
 
 
@@ -48,10 +58,12 @@ def _joint_columns(joint, n):
     return cols
 
 
-def pack(eq, active=None) -> Packed:
+def pack(eq, active=None, invariants=None) -> Packed:
     """Pack `eq` (a `KaneEquations`) for the kernels. `active` (n_all bool):
     coordinates whose rows/columns of M and F are needed (default all);
-    the others must have zero rate (fixed coordinates)."""
+    the others must have zero rate (fixed coordinates). `invariants`: True
+    or False forces every flexible body onto the invariant route or the
+    node sums (`body_integrals`); None takes the cheaper per body."""
     n = eq.n_all
     active = np.ones(n, bool) if active is None else np.asarray(active, bool)
     nb = len(eq.bodies)
@@ -126,8 +138,9 @@ def pack(eq, active=None) -> Packed:
     s0 = np.zeros((max(n_nodes, 1), 3))
     nm = np.zeros(max(n_nodes, 1))
     Jp = np.zeros(max(n_nodes, 1))
-    fpool = [np.zeros(1)]          # per flexible body, contiguous: Phi (N,3,ne), S (N,ne,ne), eta (N,ne), K, D
-    size = 1
+    fpool = [np.zeros(1)]          # per flexible body, contiguous: Phi (N,3,ne), S (N,ne,ne), eta (N,ne), K, D,
+    size = 1                       # [invariants (body_integrals.BLOCKS)]
+    scratch = 1
     for k, f in flex_nodes:
         a, N, ne = bi[k, NODE0], bi[k, NNODE], bi[k, NE]
         s0[a:a + N] = f.s0
@@ -137,12 +150,26 @@ def pack(eq, active=None) -> Packed:
         if ne == 0:
             continue
         blocks = [(PHI0, f.Phi), (S0, f.S), (ETA0, f.eta), (KD0, np.stack([f.K, f.D]))]
+        use = body_integrals.choose_invariants(f) if invariants is None else bool(invariants)
+        if use:
+            flat, sidx = body_integrals.invariants(f)
+            blocks.append((INV0, flat))
+            pos = np.full(ne, -1, np.int64)
+            pos[sidx] = np.arange(len(sidx))
+            bi[k, NS], bi[k, SIX0] = len(sidx), len(ipool)
+            ipool.extend([ne, len(sidx), int(a), N, size + 0, 0])      # header (invariant_sums)
+            head = len(ipool) - 6
+            ipool.extend(int(i) for i in sidx)
+            ipool.extend(int(i) for i in pos)
+            scratch = max(scratch, body_integrals.scratch_size(ne, len(sidx)))
         for col, arr in blocks:
             if arr is None:
                 continue
             bi[k, col] = size
             fpool.append(np.ascontiguousarray(arr, float).ravel())
             size += fpool[-1].size
+        if use:
+            ipool[head + 4], ipool[head + 5] = bi[k, INV0], bi[k, PHI0]
     _lump_rigid_subtrees(eq, bi, bf)
     n_max = max([bi[k, NNODE] for k, _ in flex_nodes] + [1])
     nrot = max(len(rot_axis), 1)
@@ -150,9 +177,42 @@ def pack(eq, active=None) -> Packed:
     if rot_c:
         rc[:len(rot_c)] = np.array(rot_c)
     data = (bi, bf, np.array(ipool + [0], np.int64), np.array(rot_axis + [0], np.int64), rc,
-            np.array(rot_off + [0.0]), A, shG, s0, nm, Jp, np.concatenate(fpool), active.copy())
-    work = _work_arrays(nb, n, ne_max, n_max)
+            np.array(rot_off + [0.0]), A, shG, s0, nm, Jp, np.concatenate(fpool), active.copy(),
+            invariant_function(bool(np.any(bi[:, INV0] > 0))))
+    work = _work_arrays(nb, n, ne_max, n_max) + (np.zeros(scratch), np.zeros((ne_max, ne_max)))
     return Packed(data, work, n, nb, node_start)
+
+
+class _Unused(types.WrapperAddressProtocol):
+    """Stands in for `invariant_sums.invariant_sums` in a system where no
+    body takes the invariant route: the same numba type (so that one
+    compiled kernel serves both), without loading the cfunc (about 35 ms).
+    No body calls it; a call would return NaN, which the kernel reports as
+    non-finite accelerations."""
+
+    def __init__(self):
+        self._nan = ctypes.CFUNCTYPE(ctypes.c_double)(lambda: float("nan"))
+
+    def __wrapper_address__(self):
+        return ctypes.cast(self._nan, ctypes.c_void_p).value
+
+    def signature(self):
+        return INVARIANT_SIG
+
+
+_UNUSED = None
+
+
+def invariant_function(needed: bool):
+    """data[13] of a packed system: the invariant route's cfunc where a body
+    takes it (imported, so compiled or loaded, on first use), else `_Unused`."""
+    global _UNUSED
+    if needed:
+        from modesel.multibody.invariant_sums import invariant_sums
+        return invariant_sums
+    if _UNUSED is None:
+        _UNUSED = _Unused()
+    return _UNUSED
 
 
 def _lump_rigid_subtrees(eq, bi, bf):

@@ -1,15 +1,20 @@
 """The first simulation after install (or after a source change), when numba
 compiles the engine into its on-disk cache.
 
-The engine has two independent halves to compile: the effects' loads
+The engine has three independent parts to compile: the flexible bodies'
+invariant route (`multibody.invariant_sums`, a cfunc), the effects' loads
 (`model.effects.compiled`: the cfunc `effect_loads` and the BEM, kinematics
 and load-distribution functions it calls) and the integration loop
 (`multibody.kernel`: the right-hand side, DOP853, the reaction loads), which
-needs only the *type* of the loads, a first-class function of
-`kernel.LOADS_SIG`; a scene without effects runs the same loops with loads
-that add nothing (`multibody.no_loads`), so one compile serves every
-scene. `compile_in_parallel` compiles the loads in a child process while this
-process compiles the right-hand side against `NO_LOADS`; the child then
+needs only the *types* of the other two, first-class functions of
+`kernel.INVARIANT_SIG` and `kernel.LOADS_SIG`; a scene without effects runs
+the same loops with loads that add nothing (`multibody.no_loads`), and one
+whose bodies all take the node sums with a stand-in for the invariant route
+(`packing.invariant_function`), so one compile serves every scene.
+`compile_in_parallel` compiles the loads in a child process while this
+process compiles the right-hand side against `NO_LOADS` and the stand-in
+(and then the invariant route, where the scene uses it: the turbine's
+loads take the child longer than the kernel takes this process); the child then
 compiles the reaction loads over the output times on a small stand-in problem
 (the kernel's argument types do not depend on the model), while this process
 compiles DOP853. All land in numba's cache, from which the simulation then
@@ -32,6 +37,8 @@ import numpy as np
 
 #: the module of the effects' compiled loads (compiled by the child)
 LOADS_MODULE = "modesel.model.effects.compiled"
+#: the module of the flexible bodies' invariant route (compiled here after the kernel)
+INVARIANT_MODULE = "modesel.multibody.invariant_sums"
 
 
 def index_files(module: str) -> list:
@@ -82,8 +89,9 @@ def die_with_parent_signal() -> None:
 
 def compile_in_parallel(built) -> bool:
     """Compile the effects' loads and then the kernel's reaction loads in a
-    child process and the kernel's right-hand side and its explicit
-    Runge-Kutta loop (one for DOP853 and RK45) here, at once,
+    child process and the kernel's right-hand side, its explicit
+    Runge-Kutta loop (one for DOP853 and RK45) and the invariant route
+    (where `built` uses it) here, at once,
     when the loads have no numba cache yet (module doc), also for a scene
     without effects (a later one with effects finds them compiled). Returns
     True when it ran. The child is waited for, and killed if this process is
@@ -112,6 +120,8 @@ def compile_in_parallel(built) -> bool:
             pass
     try:
         _compile_kernel(built, right_hand_side_cached)
+        if uses_invariants(built.eq):
+            importlib.import_module(INVARIANT_MODULE)      # compiles it, while the child compiles the loads
         child.wait()
     finally:
         if not child.stdin.closed:
@@ -120,6 +130,14 @@ def compile_in_parallel(built) -> bool:
             child.kill()
             child.wait()
     return True
+
+
+def uses_invariants(eq) -> bool:
+    """Whether a flexible body of `eq` (`KaneEquations`) takes the invariant
+    route (`body_integrals.choose_invariants`), whose cfunc is then compiled
+    beside the loads."""
+    from modesel.multibody.body_integrals import choose_invariants
+    return any(f is not None and choose_invariants(f) for _, _, f in eq.bodies)
 
 
 def _compile_kernel(built, rhs_done) -> None:
@@ -131,7 +149,9 @@ def _compile_kernel(built, rhs_done) -> None:
     right-hand side is compiled (and in numba's cache)."""
     from modesel.multibody.compiled import CompiledRHS
     from modesel.multibody.dop853_tableau import TABLE
-    rhs = CompiledRHS(built.eq, built.linear)          # NO_LOADS: the loads' type
+    # NO_LOADS: the loads' type; node sums only: the invariant route's type
+    # without its cfunc, which the child compiles meanwhile
+    rhs = CompiledRHS(built.eq, built.linear, packed=built.eq.pack_free(invariants=False))
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     rhs(0.0, q0, qd0)
     rhs_done()
@@ -143,8 +163,9 @@ def _compile_kernel(built, rhs_done) -> None:
 
 
 #: the stand-in problem `compile_reactions` compiles on: the kernel's argument
-#: types do not depend on the model (tests/test_fast_start.py checks it)
-STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {"tower_fa": {"family": "elastodyn", "count": 1}},
+#: types do not depend on the model (tests/test_fast_start.py checks it);
+#: rigid, so that building it loads no invariant route (`packing.invariant_function`)
+STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {},
                   "dofs": {"free": ["GeAz"]}, "initial": {"RotSpeed": 9.0}, "effects": {"gravity": True}}
 
 
@@ -156,10 +177,11 @@ def compile_reactions() -> None:
     numba's cache, so that this process loads it from there instead of
     compiling it a second time."""
     from modesel.multibody.compiled import CompiledRHS
+    from modesel.multibody.packing import pack
     from modesel.simulation.assembly import build
     from modesel.simulation.scene import scene_from_dict
     built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
     sys.stdin.readline()
-    full = CompiledRHS(built.eq, built.linear, all_rows=True)
+    full = CompiledRHS(built.eq, built.linear, all_rows=True, packed=pack(built.eq, invariants=False))
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])
