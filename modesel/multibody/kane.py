@@ -266,7 +266,10 @@ class KaneEquations:
 
     @cached_property
     def _kernel_free_rows(self) -> CompiledRHS:
-        return CompiledRHS(self)
+        # `evaluate` (static equilibrium, scipy's integrators: no hot loop)
+        # takes the node sums, so that building a scene loads no invariant
+        # route (its cfunc then compiles beside the loads on a first run)
+        return CompiledRHS(self, packed=self.pack_free(invariants=False))
 
     def compiled_rhs(self, linear=(), *, all_rows=False) -> CompiledRHS:
         """Compiled right-hand side of the free coordinates for `integrate`

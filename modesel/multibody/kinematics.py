@@ -68,7 +68,7 @@ class FrameKinematics:
         active = np.zeros(eq.n_all, bool)
         active[eq.free_idx] = True
         active[eq.presc_idx] = True
-        self.packed = pack(eq, active)
+        self.packed = pack(eq, active, invariants=False)      # frames only: no body sums
         self.index = dict(eq.body_index)
 
     def __call__(self, q_all, qd_all):

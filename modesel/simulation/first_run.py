@@ -11,10 +11,9 @@ needs only the *types* of the other two, first-class functions of
 the same loops with loads that add nothing (`multibody.no_loads`), and one
 whose bodies all take the node sums with a stand-in for the invariant route
 (`packing.invariant_function`), so one compile serves every scene.
-`compile_in_parallel` compiles the loads in a child process while this
-process compiles the right-hand side against `NO_LOADS` and the stand-in
-(and then the invariant route, where the scene uses it: the turbine's
-loads take the child longer than the kernel takes this process); the child then
+`compile_in_parallel` compiles the invariant route (where the scene uses
+it) and the loads in a child process while this process compiles the
+right-hand side against `NO_LOADS` and the stand-in; the child then
 compiles the reaction loads over the output times on a small stand-in problem
 (the kernel's argument types do not depend on the model), while this process
 compiles DOP853. All land in numba's cache, from which the simulation then
@@ -37,7 +36,7 @@ import numpy as np
 
 #: the module of the effects' compiled loads (compiled by the child)
 LOADS_MODULE = "modesel.model.effects.compiled"
-#: the module of the flexible bodies' invariant route (compiled here after the kernel)
+#: the module of the flexible bodies' invariant route (compiled by the child first)
 INVARIANT_MODULE = "modesel.multibody.invariant_sums"
 
 
@@ -88,10 +87,10 @@ def die_with_parent_signal() -> None:
 
 
 def compile_in_parallel(built) -> bool:
-    """Compile the effects' loads and then the kernel's reaction loads in a
-    child process and the kernel's right-hand side, its explicit
-    Runge-Kutta loop (one for DOP853 and RK45) and the invariant route
-    (where `built` uses it) here, at once,
+    """Compile the invariant route (where `built` uses it), the effects' loads
+    and then the kernel's reaction loads in a child process and the kernel's
+    right-hand side and its explicit Runge-Kutta loop (one for DOP853 and
+    RK45) here, at once,
     when the loads have no numba cache yet (module doc), also for a scene
     without effects (a later one with effects finds them compiled). Returns
     True when it ran. The child is waited for, and killed if this process is
@@ -106,7 +105,8 @@ def compile_in_parallel(built) -> bool:
     package_root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
                                                         if p))
-    code = f"import {LOADS_MODULE}; from {__name__} import compile_reactions; compile_reactions()"
+    first = f"import {INVARIANT_MODULE}; " if uses_invariants(built.eq) else ""
+    code = f"{first}import {LOADS_MODULE}; from {__name__} import compile_reactions; compile_reactions()"
     child = subprocess.Popen([sys.executable, "-c", code], env=env,
                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
@@ -120,8 +120,6 @@ def compile_in_parallel(built) -> bool:
             pass
     try:
         _compile_kernel(built, right_hand_side_cached)
-        if uses_invariants(built.eq):
-            importlib.import_module(INVARIANT_MODULE)      # compiles it, while the child compiles the loads
         child.wait()
     finally:
         if not child.stdin.closed:
@@ -134,8 +132,8 @@ def compile_in_parallel(built) -> bool:
 
 def uses_invariants(eq) -> bool:
     """Whether a flexible body of `eq` (`KaneEquations`) takes the invariant
-    route (`body_integrals.choose_invariants`), whose cfunc is then compiled
-    beside the loads."""
+    route (`body_integrals.choose_invariants`), whose cfunc the child then
+    compiles first."""
     from modesel.multibody.body_integrals import choose_invariants
     return any(f is not None and choose_invariants(f) for _, _, f in eq.bodies)
 
