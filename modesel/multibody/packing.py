@@ -156,9 +156,11 @@ def pack(eq, active=None, invariants=None) -> Packed:
             blocks.append((INV0, flat))
             pos = np.full(ne, -1, np.int64)
             pos[sidx] = np.arange(len(sidx))
-            bi[k, NS], bi[k, SIX0] = len(sidx), len(ipool)
-            ipool.extend([ne, len(sidx), int(a), N, size + 0, 0])      # header (invariant_sums)
-            head = len(ipool) - 6
+            # header of invariant_sums: ne, ns, first node, node count, offsets of
+            # the invariants and of Phi in the float pool (set below), modes, positions
+            head = bi[k, SIX0] = len(ipool)
+            bi[k, NS] = len(sidx)
+            ipool.extend([ne, len(sidx), int(a), N, 0, 0])
             ipool.extend(int(i) for i in sidx)
             ipool.extend(int(i) for i in pos)
             scratch = max(scratch, body_integrals.scratch_size(ne, len(sidx)))
