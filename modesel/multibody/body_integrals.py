@@ -92,13 +92,14 @@ def invariant_cost(n_nodes: int, ne: int, ns: int, loaded: bool) -> float:
         n_nodes * (2 * ns * ns + 6 * ne + 30) if loaded else 0)
 
 
-def choose_invariants(f, loaded: bool = True) -> bool:
+def choose_invariants(f) -> bool:
     """Whether the body `f` (`FlexibleArrays`) is cheaper through its
-    invariants; `loaded`: whether an effect may put node forces on it."""
+    invariants, counting node forces on it (the packer does not know which
+    bodies the effects load)."""
     ne, ns, N = len(f.idx), len(shortening_modes(f)), len(f.m)
     if ne == 0 or max(ns ** 4, 3 * ne * ns * ns) > MAX_ENTRIES:
         return False
-    return INVARIANT_GAIN * invariant_cost(N, ne, ns, loaded) < node_cost(N, ne, f.eta is not None)
+    return INVARIANT_GAIN * invariant_cost(N, ne, ns, True) < node_cost(N, ne, f.eta is not None)
 
 
 def invariants(f) -> tuple[np.ndarray, np.ndarray]:

@@ -443,7 +443,7 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
     configuration (O(N ne^2), two matrix products): writes m p, I_rr, C_t,
     C_r, f_t, f_r, M_ee and f_e (before the node moments and the elastic
     forces) into `work`; returns the body's mass."""
-    bi, ipool = data[0], data[2]
+    bi = data[0]
     s0, nm, Jp, fpool = data[8], data[9], data[10], data[11]
     R = work[0][b]
     e_scr, B3, nodes = work[6], work[7], work[12]

@@ -22,18 +22,17 @@ Rigid bodies on constant joints are lumped here (`lumping.lump`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import ctypes
+from dataclasses import dataclass
 
 import numba.experimental.function_type  # noqa: F401  (numba's typeof of `_Unused`)
 import numpy as np
 from numba import types
 
-from modesel.multibody.kernel import (INVARIANT_SIG, AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
-                                          INERTIA, INV0, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE,
-                                          NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0, POLAR, R0, RIGID,
-                                          ROT0, S0, SH0, SH_E, SIX0, SKIP)
+from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
+                                          INERTIA, INV0, INVARIANT_SIG, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT,
+                                          NCOL, NE, NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0, POLAR, R0,
+                                          RIGID, ROT0, S0, SH0, SH_E, SIX0, SKIP)
 from modesel.multibody import body_integrals
 from modesel.multibody.lumping import RigidPart, constant_placement, lump, rigid_equivalent
 
@@ -202,18 +201,15 @@ class _Unused(types.WrapperAddressProtocol):
         return INVARIANT_SIG
 
 
-_UNUSED = None
+_UNUSED = _Unused()
 
 
 def invariant_function(needed: bool):
     """data[13] of a packed system: the invariant route's cfunc where a body
     takes it (imported, so compiled or loaded, on first use), else `_Unused`."""
-    global _UNUSED
     if needed:
         from modesel.multibody.invariant_sums import invariant_sums
         return invariant_sums
-    if _UNUSED is None:
-        _UNUSED = _Unused()
     return _UNUSED
 
 

@@ -175,11 +175,10 @@ def compile_reactions() -> None:
     numba's cache, so that this process loads it from there instead of
     compiling it a second time."""
     from modesel.multibody.compiled import CompiledRHS
-    from modesel.multibody.packing import pack
     from modesel.simulation.assembly import build
     from modesel.simulation.scene import scene_from_dict
     built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
     sys.stdin.readline()
-    full = CompiledRHS(built.eq, built.linear, all_rows=True, packed=pack(built.eq, invariants=False))
+    full = CompiledRHS(built.eq, built.linear, all_rows=True)
     q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
     full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])
