@@ -523,10 +523,22 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset
     velocity of the node (ElastoDyn.f90 PAngVelEM), -s_y j_1 + s_x j_2 with
     s the mode's slope at the node (slopes (N, 3, ne)) and j_1, j_2 the
     axes of the pitched blade frame (not the deflected section's)."""
-    B = fn.shape[0]
+    B, M = fn.shape[0], fn.shape[1]
     ne = elastic.shape[1]
+    g = np.empty((M, 3))                  # f_a
+    z = np.empty((M, 3))                  # e_t,a x e_n,a
+    acc = np.empty(ne)                    # the blade's generalized forces, summed in node order
     for b in range(B):
         Rb = R[blades[b]]
+        _line_loads(fn, ft, en, et, b, g)
+        for a in range(M):
+            n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
+            t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
+            z[a, 0] = t1 * n2 - t2 * n1
+            z[a, 1] = t2 * n0 - t0 * n2
+            z[a, 2] = t0 * n1 - t1 * n0
+        for j in range(ne):
+            acc[j] = generalized[elastic[b, j]]
         for i in range(forces.shape[1]):
             forces[b, i, 3] = 0.0
             forces[b, i, 4] = 0.0
@@ -538,15 +550,13 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset
                 if w == 0.0:
                     continue
                 a = first[p] + k
-                n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
-                t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
-                F0 += w * (fn[b, a] * n0 + ft[b, a] * t0)
-                F1 += w * (fn[b, a] * n1 + ft[b, a] * t1)
-                F2 += w * (fn[b, a] * n2 + ft[b, a] * t2)
+                F0 += w * g[a, 0]
+                F1 += w * g[a, 1]
+                F2 += w * g[a, 2]
                 m = w * cm_scale * fm[b, a]
-                M0 += m * (t1 * n2 - t2 * n1)
-                M1 += m * (t2 * n0 - t0 * n2)
-                M2 += m * (t0 * n1 - t1 * n0)
+                M0 += m * z[a, 0]
+                M1 += m * z[a, 1]
+                M2 += m * z[a, 2]
             d0 = Rb[0, 0] * offset[p, 0] + Rb[0, 1] * offset[p, 1] + Rb[0, 2] * offset[p, 2]
             d1 = Rb[1, 0] * offset[p, 0] + Rb[1, 1] * offset[p, 1] + Rb[1, 2] * offset[p, 2]
             d2 = Rb[2, 0] * offset[p, 0] + Rb[2, 1] * offset[p, 1] + Rb[2, 2] * offset[p, 2]
@@ -562,7 +572,9 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset
             l0 = Rb[0, 0] * M0 + Rb[1, 0] * M1 + Rb[2, 0] * M2
             l1 = Rb[0, 1] * M0 + Rb[1, 1] * M1 + Rb[2, 1] * M2
             for j in range(ne):
-                generalized[elastic[b, j]] += -slopes[n, 1, j] * l0 + slopes[n, 0, j] * l1
+                acc[j] += -slopes[n, 1, j] * l0 + slopes[n, 0, j] * l1
+        for j in range(ne):
+            generalized[elastic[b, j]] = acc[j]
 
 
 def _linear_weights(stations, at):
@@ -703,15 +715,29 @@ def distribute(fn, ft, en, et, T, first, out):
     the loads per unit length at the stations (module doc, step 5; en, et
     (B, M, 3) per station); T in banded rows (`row_bands`): T_ia =
     T[i, a - first[i]]."""
+    g = np.empty((fn.shape[1], 3))        # f_a, once per station
     for b in range(out.shape[0]):
+        _line_loads(fn, ft, en, et, b, g)
         for i in range(out.shape[1]):
             f0 = first[i]
-            for c in range(3):
-                v = 0.0
-                for k in range(T.shape[1]):
-                    a = f0 + k
-                    v += T[i, k] * (fn[b, a] * en[b, a, c] + ft[b, a] * et[b, a, c])
-                out[b, i, c] = v
+            v0 = v1 = v2 = 0.0
+            for k in range(T.shape[1]):
+                w = T[i, k]
+                a = f0 + k
+                v0 += w * g[a, 0]
+                v1 += w * g[a, 1]
+                v2 += w * g[a, 2]
+            out[b, i, 0] = v0
+            out[b, i, 1] = v1
+            out[b, i, 2] = v2
+
+
+@njit(cache=True, inline="always")
+def _line_loads(fn, ft, en, et, b, g):
+    """g[a] = f_n,a e_n,a + f_t,a e_t,a [N/m]: blade b's line load at each station."""
+    for a in range(fn.shape[1]):
+        for c in range(3):
+            g[a, c] = fn[b, a] * en[b, a, c] + ft[b, a] * et[b, a, c]
 
 
 def row_bands(W):
