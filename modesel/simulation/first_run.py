@@ -25,7 +25,6 @@ in numba's cache yet (`simulation.progress` uses them for its notice).
 """
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import os
 import subprocess
@@ -34,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from modesel.engine_cache import cache_places
+
 #: the module of the effects' compiled loads (compiled by the child)
 LOADS_MODULE = "modesel.model.effects.compiled"
 #: the module of the flexible bodies' invariant route (compiled by the child first)
@@ -41,23 +42,14 @@ INVARIANT_MODULE = "modesel.multibody.invariant_sums"
 
 
 def index_files(module: str) -> list:
-    """numba cache index files (*.nbi) of `module` in the places numba looks:
-    NUMBA_CACHE_DIR, else __pycache__ beside the source, then the user-wide
-    cache. Under a cache folder numba names each source folder
-    `<name>_<sha1 of its absolute path>` (numba.core.caching's cache
-    locators), so that modules of one name in two folders (the loads'
-    `effects/compiled.py`, `multibody/compiled.py`) are told apart."""
+    """numba cache index files (*.nbi) of `module` in the places numba looks
+    (`engine_cache.cache_places`: NUMBA_CACHE_DIR, else __pycache__ beside
+    the source, then the user-wide cache)."""
     spec = importlib.util.find_spec(module)
     if spec is None or not spec.origin:
         return []
     source = Path(os.path.abspath(spec.origin))
-    folder = str(source.parent)
-    subpath = f"{source.parent.name}_{hashlib.sha1(folder.encode()).hexdigest()}"
-    if os.environ.get("NUMBA_CACHE_DIR"):      # numba then uses this folder only
-        places = [Path(os.environ["NUMBA_CACHE_DIR"]) / subpath]
-    else:
-        places = [source.parent / "__pycache__", Path.home() / ".cache" / "numba" / subpath]
-    for place in places:
+    for place in cache_places(source.parent):
         found = list(place.glob(f"{source.stem}.*.nbi")) if place.is_dir() else []
         if found:
             return found
