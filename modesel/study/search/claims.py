@@ -87,8 +87,8 @@ def claim(trial, label: str, *, wait_s: float = 600.0, poll_s: float = 0.5):
     it reads the storage again after a pause of POLL_SHARE times the last
     read (at least 10 ms, at most `poll_s` [s]): on a journal file, whose
     reads take milliseconds, it notices the record within tens of
-    milliseconds; on a database, whose reads of all trials take a tenth of a
-    second, it reads no more often than a fixed back-off would."""
+    milliseconds; on a database, whose reads of all trials take about a
+    tenth of a second, every `poll_s`."""
     import optuna
     study = trial.study
     trial.set_user_attr("modeset", label)                                   # 1. choosing
