@@ -2,7 +2,8 @@
 full turbine (studies/scenes/turbine_wind_11p4.toml: BEM, tower drag,
 generator) with FAMILY:COUNT modes in every field (default fem:4, the
 38-DOF case of `bench_turbine.py`): the whole right-hand side with the
-solve (`kernel.free_system`), the bodies' frames (`kernel.kinematics`),
+solve (`kernel.free_system`, its cfunc `system_function.FREE_SYSTEM`
+called through a pointer as the integrators call it), the bodies' frames (`kernel.kinematics`),
 the effects' loads (the `effect_loads` cfunc) and the assembly of M and F
 with the node forces (`kernel.assemble`), each in a compiled loop of
 --calls calls after one warm-up (so numba's dispatch is not timed), at a
@@ -25,6 +26,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from modesel.modeset import FieldModes, ModeSet  # noqa: E402
 from modesel.multibody import kernel  # noqa: E402
+from modesel.multibody.system_function import FREE_SYSTEM  # noqa: E402
 from modesel.simulation.api import load_scene  # noqa: E402
 from modesel.simulation.assembly import build  # noqa: E402
 
@@ -33,9 +35,9 @@ FIELDS = ("tower_fa", "tower_ss", "tower_torsion", "blade_flap", "blade_edge")
 
 
 @njit
-def _free(n, t, x, out, inf, prob, rwork, data, work):
+def _free(n, system, t, x, out, inf, prob, rwork, data, work):
     for i in range(n):
-        kernel.free_system(t + 1e-9 * i, x, out, kernel.SOLVE, inf, prob, rwork, data, work)
+        system(t + 1e-9 * i, x, out, kernel.SOLVE, inf, prob, rwork, data, work)
 
 
 @njit
@@ -70,13 +72,13 @@ def main(argv=None) -> int:
     x[:n] = np.asarray(built.q0, float)[:n]
     x[n:] = 0.01
     out, inf = np.zeros(2 * n), np.full(n, np.inf)
-    kernel.free_system(1.0, x, out, kernel.SOLVE, inf, prob, rwork, packed.data, packed.work)
+    kernel.call_system(FREE_SYSTEM, 1.0, x, out, kernel.SOLVE, inf, prob, rwork, packed.data, packed.work)
     q, qd = rwork[0][0].copy(), rwork[0][1].copy()
     gen = np.zeros(len(q))
     M, F = np.zeros((len(q), len(q))), np.zeros(len(q))
     pieces = {
         "right-hand side (free_system, with the solve)":
-            lambda k: _free(k, 1.0, x, out, inf, prob, rwork, packed.data, packed.work),
+            lambda k: _free(k, FREE_SYSTEM, 1.0, x, out, inf, prob, rwork, packed.data, packed.work),
         "frames (kinematics)": lambda k: _kinematics(k, q, qd, packed.data, packed.work),
         "loads (effect_loads)": lambda k: _loads(k, prob[9], 1.0, q, qd, gen, prob[7], prob[8], packed.work),
         "M and F with node forces (assemble)":

@@ -229,21 +229,29 @@ def test_cold_cache_is_told_apart_for_modules_of_one_name(tmp_path):
         assert json.loads(done.stdout.strip().splitlines()[-1]) == [False, True], cache
 
 
-def test_kernel_argument_types_do_not_depend_on_the_model():
-    """The first run's child compiles the reaction loads on a small stand-in
-    problem (`first_run.STAND_IN_SCENE`) for the simulation's own: numba's
-    types of the kernel's arguments (problem, work arrays, packed equations)
-    are the same for that scene, an OpenFAST case with BEM (its packed loads),
-    a tower-only scene (`no_loads.NO_LOADS`) and the turbine scene, whose
-    flexible bodies take the invariant route (`invariant_sums`), so the
-    compiled loops serve them all."""
-    from numba import typeof
+#: a small rigid scene (no invariant route, no effects but gravity)
+SMALL_RIGID = {"turbine": "nrel5mw", "modes": {}, "dofs": {"free": ["GeAz"]}, "initial": {"RotSpeed": 9.0},
+               "effects": {"gravity": True}}
 
+
+def test_kernel_argument_types_do_not_depend_on_the_model():
+    """The first run compiles the right-hand side on the scene's own
+    equations without its loads or invariant route, and the loops for
+    their argument types alone (`first_run.loop_signatures`): numba's types
+    of the kernel's arguments (problem, work arrays, packed equations) are
+    `kernel.PROB_T`, `RWORK_T`, `DATA_T`, `WORK_T` for a small rigid scene,
+    an OpenFAST case with BEM (its packed loads), a tower-only scene
+    (`no_loads.NO_LOADS`) and the turbine scene, whose flexible bodies take
+    the invariant route (`invariant_sums`), so the compiled loops serve
+    them all."""
+    from numba import typeof, types
+
+    from modesel.multibody import kernel
     from modesel.multibody.compiled import CompiledRHS
     from modesel.simulation import first_run
     from modesel.simulation.api import build, load_scene
     from modesel.simulation.scene import scene_from_dict
-    scenes = [scene_from_dict(first_run.STAND_IN_SCENE), load_scene(str(STEADY_08)),
+    scenes = [scene_from_dict(SMALL_RIGID), load_scene(str(STEADY_08)),
               load_scene(str(ROOT / "studies" / "scenes" / "paper_3dof_land.toml")),
               load_scene(str(ROOT / "studies" / "scenes" / "turbine_wind_11p4.toml"))]
     builts = [build(s, reactions=True) for s in scenes]
@@ -256,13 +264,39 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
     # stand-in), the turbine scene's the invariants (its cfunc): one type
     routes = [first_run.uses_invariants(b.eq) for b in builts]
     assert routes[1] is False and routes[3] is True
-    assert len(kinds) == 1
+    assert kinds == {types.Tuple((kernel.PROB_T, kernel.RWORK_T, kernel.DATA_T, kernel.WORK_T))}
+
+
+def test_loops_are_called_with_the_types_the_first_run_compiles():
+    """The integration loop and the reaction loads, run as a simulation runs
+    them, take exactly the argument types `first_run.compile_loops` compiles
+    them for (else the first run would have compiled them for nothing), and
+    the right-hand side's cfunc is of `kernel.SYSTEM_SIG`."""
+    from numba import typeof, types
+
+    from modesel.multibody import kernel
+    from modesel.multibody.system_function import FREE_SYSTEM
+    from modesel.simulation import first_run
+    from modesel.simulation.api import build, load_scene
+    assert typeof(FREE_SYSTEM) == types.FunctionType(kernel.SYSTEM_SIG)
+    built = build(load_scene(str(STEADY_08)), reactions=True)
+    rhs = built.rhs(all_rows=True)
+    x0 = np.concatenate([built.q0, built.qd0]).astype(float)
+    n = rhs.n_free
+    code, *_ = rhs.rk45(x0, np.array([0.0, 0.01]), 0.01, 1e-5, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf))
+    assert code == kernel.OK
+    rhs.outputs(np.array([0.0]), np.asarray(built.q0, float)[None, :], np.asarray(built.qd0, float)[None, :],
+                rows=list(built.model.reactions.values())[:1])
+    expected = first_run.loop_signatures()
+    assert [tuple(s) for s in kernel.runge_kutta.signatures] == [expected["runge_kutta"]]
+    assert [tuple(s) for s in kernel.reaction_loads.signatures] == [expected["reaction_loads"]]
 
 
 @pytest.mark.slow
 def test_first_run_compiled_in_parallel_gives_the_warm_run(tmp_path):
     """The cold run (loads compiled by the child, the kernel against a stand-in
-    of the loads' type) writes the child's cache and the outputs of a warm run,
+    of the loads' type) writes the child's cache, all the warm run needs, and
+    the outputs of a warm run,
     to the integration tolerance: freshly compiled and cache-loaded code round
     differently in the last digits (fastmath reassociation in the node sums),
     which moves the adaptive steps (rtol 1e-5 of an OpenFAST case)."""
@@ -271,10 +305,13 @@ def test_first_run_compiled_in_parallel_gives_the_warm_run(tmp_path):
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err
     assert (tmp_path / "numba").is_dir() and list((tmp_path / "numba").glob("**/compiled.effect_loads*.nbi"))
+    compiled = sorted((tmp_path / "numba").glob("**/*.nbc"))
     warm = tmp_path / "warm.csv"
     proc = _cold_simulate(tmp_path, warm)
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err
+    # the warm run compiled nothing: the first run compiled what it needs, for its types
+    assert sorted((tmp_path / "numba").glob("**/*.nbc")) == compiled
     from modesel.files import read_unit_csv
     a, b = read_unit_csv(cold), read_unit_csv(warm)
     assert list(a.columns) == list(b.columns) and len(a) == len(b) > 2

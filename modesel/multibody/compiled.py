@@ -83,7 +83,8 @@ class CompiledRHS:
         x[self.n_free:] = qd
         tk, prob = self._problem_at(t)
         p = self.packed
-        return kernel.free_system(tk, x, self._out, solve, self._no_bounds, prob, self.rwork, p.data, p.work)[0]
+        return kernel.call_system(_system(), tk, x, self._out, solve, self._no_bounds, prob, self.rwork, p.data,
+                                  p.work)[0]
 
     def __call__(self, t, q, qd):
         self._free(t, q, qd, False)
@@ -129,7 +130,7 @@ class CompiledRHS:
         the times, as in an integration. Needs all_rows."""
         if not self.packed.data[12].all():         # the active mask: every row
             raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
-        t = np.atleast_1d(np.asarray(t, float))
+        t = np.array(t, float, ndmin=1)        # a writable copy: the one type the first run compiles for
         X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
         idx = np.array([self.eq.index[r] for r in rows], np.int64)
         slots = np.array([self.channels[c][0] for c in channels], np.int64)
@@ -139,13 +140,13 @@ class CompiledRHS:
             state[self.channel_flag] = 1.0
         try:
             if self.compilable:
-                code = kernel.reaction_loads(t, X, idx, slots, self.prob, self.rwork, self.packed.data,
+                code = kernel.reaction_loads(_system(), t, X, idx, slots, self.prob, self.rwork, self.packed.data,
                                              self.packed.work, out)
             else:
                 code = kernel.OK
                 for k, tk in enumerate(t):
                     tk0, prob = self._problem_at(tk)
-                    code = kernel.reaction_loads(np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
+                    code = kernel.reaction_loads(_system(), np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
                                                  self.packed.data, self.packed.work, out[k:k + 1])
                     if code != kernel.OK:
                         break
@@ -171,14 +172,18 @@ class CompiledRHS:
     def _explicit(self, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
-        Y = np.zeros((len(t_eval), len(x0)))
+        args = self.explicit_arguments(_system(), kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
+        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(*args)
+        return code, t_stop, nfev, idx, args[-1][:n_out]
+
+    def explicit_arguments(self, system, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+        """The arguments of `kernel.runge_kutta` (its outputs Y last), as
+        `dop853` and `rk45` pass them; `simulation.first_run` compiles the
+        loop for their types."""
         p = self.packed
-        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(np.array(x0, float), np.asarray(t_eval, float),
-                                                            float(tmax), float(rtol), np.asarray(atol, float),
-                                                            float(max_step), np.asarray(bounds, float),
-                                                            tuple(table), kind, self.prob, self.rwork, p.data,
-                                                            p.work, Y)
-        return code, t_stop, nfev, idx, Y[:n_out]
+        return (system, np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
+                np.asarray(atol, float), float(max_step), np.asarray(bounds, float), tuple(table), kind, self.prob,
+                self.rwork, p.data, p.work, np.zeros((len(t_eval), len(x0))))
 
     def jacobian(self, t, q, qd):
         """(dqdd/dq, dqdd/dqd) of the free coordinates at (t, q, qd) by the
@@ -188,10 +193,10 @@ class CompiledRHS:
         x = np.concatenate([q, qd]).astype(float)
         f = np.zeros(2 * n)
         p = self.packed
-        code, _ = kernel.free_system(tk, x, f, True, self._no_bounds, prob, self.rwork, p.data, p.work)
+        code, _ = kernel.call_system(_system(), tk, x, f, True, self._no_bounds, prob, self.rwork, p.data, p.work)
         A, B = np.zeros((n, n)), np.zeros((n, n))
         if code == kernel.OK:
-            code = implicit.jacobian(tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
+            code = implicit.jacobian(_system(), tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
                                      self.rwork, p.data, p.work, np.zeros(2, np.int64))
         if code != kernel.OK:
             A[:], B[:] = np.nan, np.nan
@@ -206,10 +211,18 @@ class CompiledRHS:
         Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
         code, t_stop, nfev, n_out, idx, n_jac, n_lu, n_steps = implicit.radau5(
-            np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol), np.asarray(atol, float),
-            float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob, self.rwork, p.data, p.work, Y)
+            _system(), np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
+            np.asarray(atol, float), float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob,
+            self.rwork, p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out], {"n_jac": int(n_jac), "n_lu": int(n_lu),
                                                       "n_steps": int(n_steps)}
+
+
+def _system():
+    """`system_function.FREE_SYSTEM`, the right-hand side's cfunc, imported
+    (so compiled or loaded from numba's cache) on first use."""
+    from modesel.multibody.system_function import FREE_SYSTEM
+    return FREE_SYSTEM
 
 
 def _no_loads():

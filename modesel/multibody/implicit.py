@@ -1,6 +1,6 @@
 """Compiled Radau IIA (order 5) for M(q) qdd = F(q, qd, t), run entirely in
-numba on the kernel's `free_system` (method "compiled-Radau" of
-`integrate.py`).
+numba on the kernel's `free_system` (its cfunc, the loops' `system`
+argument; method "compiled-Radau" of `integrate.py`).
 
 The algorithm, step control, Newton iteration, error estimate and dense
 output are those of scipy.integrate.Radau (Hairer & Wanner, Solving ODEs II,
@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE, STEP_COLLAPSE,
-                                      free_system, lu_factor, lu_solve_factored, start)
+                                      lu_factor, lu_solve_factored, start)
 
 S6 = 6 ** 0.5
 C = np.array([(4 - S6) / 10, (4 + S6) / 10, 1.0])
@@ -94,7 +94,7 @@ def _solve(c, Jb, S, piv, r, u, out):
 
 
 @njit(cache=True)
-def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work, counts):
+def jacobian(system, t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work, counts):
     """Lower half of the Jacobian at (t, x), f = f(t, x): Ja = dqdd/dq,
     Jb = dqdd/dqd by forward differences. counts[0] (right-hand sides) and
     counts[1] (Jacobians) are incremented. Returns a status code."""
@@ -106,7 +106,7 @@ def jacobian(t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work,
         h = JAC_REL_STEP * max(abs(x[j]), JAC_FLOOR)
         scratch[j] = x[j] + h
         h = scratch[j] - x[j]
-        code, _ = free_system(t, scratch, out, SOLVE, inf_bounds, prob, rwork, data, work)
+        code, _ = system(t, scratch, out, SOLVE, inf_bounds, prob, rwork, data, work)
         counts[0] += 1
         scratch[j] = x[j]
         if code != OK:
@@ -130,7 +130,7 @@ def _norm(e, scale):
 
 
 @njit(cache=True)
-def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
+def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
     """Radau IIA order 5 from x0 = [q, qd] over [0, tmax], outputs at t_eval
     (increasing, within [0, tmax]) into Y.
 
@@ -175,12 +175,12 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
     n_lu = 0
     n_steps = 0
     t = 0.0
-    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, 3, bounds, prob, rwork, data, work)
+    code, idx, h_abs, nfev = start(system, y, f, tmax, max_step, rtol, atol, 3, bounds, prob, rwork, data, work)
     if code != OK:
         return code, h_abs, nfev, 0, idx, 0, n_lu, n_steps
     h_abs_old = -1.0            # -1: none (scipy None)
     error_norm_old = -1.0
-    code = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
+    code = jacobian(system, t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
     if code != OK:
         return code, t, nfev + counts[0], 0, -1, counts[1], n_lu, n_steps
     current_jac = True
@@ -262,7 +262,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                     for s in range(3):
                         for i in range(nx):
                             scratch[i] = y[i] + Z[s, i]
-                        code, idx = free_system(t + Cc[s] * h, scratch, tmp, SOLVE, bounds, prob, rwork, data,
+                        code, idx = system(t + Cc[s] * h, scratch, tmp, SOLVE, bounds, prob, rwork, data,
                                                 work)
                         nfev += 1
                         if code != OK:
@@ -313,7 +313,8 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
                 if not converged:
                     if current_jac:
                         break
-                    code = jacobian(t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
+                    code = jacobian(system, t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
+                                    counts)
                     if code != OK:
                         return code, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
                     current_jac = True
@@ -334,7 +335,7 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             if rejected and error_norm > 1:
                 for i in range(nx):
                     scratch[i] = y[i] + err[i]
-                code, idx = free_system(t, scratch, tmp, SOLVE, inf_bounds, prob, rwork, data, work)
+                code, idx = system(t, scratch, tmp, SOLVE, inf_bounds, prob, rwork, data, work)
                 nfev += 1
                 if code == OK:
                     for i in range(nx):
@@ -354,12 +355,12 @@ def radau5(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, dat
             factor = 1.0
         else:
             have_lu = False
-        code, idx = free_system(t_new, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
+        code, idx = system(t_new, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
         nfev += 1
         if code != OK:
             return code, t_new, nfev + counts[0], n_out, idx, counts[1], n_lu, n_steps
         if recompute_jac:
-            code = jacobian(t_new, y_new, f_new, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
+            code = jacobian(system, t_new, y_new, f_new, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
                             counts)
             if code != OK:
                 return code, t_new, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps

@@ -27,11 +27,17 @@ eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
 - the mass matrix of the free coordinates is solved by Cholesky.
 
 Kernels take the packed arrays `data` and reusable `work` arrays (tuples).
-All compiled code of the engine's equations is in this one file (numba's
-on-disk cache of a function holds the functions it calls and is invalidated
-only by a change of its own file), but for the functions it receives as
-pointers (the invariant route, the effects' loads), whose code it does not
-hold; the Python front is `compiled.CompiledRHS`.
+All compiled code of the engine's equations is in this one file, but for the
+functions it receives as pointers (the invariant route, the effects' loads),
+whose code it does not hold. The right-hand side `free_system` is compiled
+once, as a cfunc (`system_function`), which the loops (`runge_kutta`,
+`reaction_loads`, `implicit.radau5`) take as their first argument: numba
+would otherwise compile the whole right-hand side again into each loop that
+calls it. `assemble` and `_loads_and_assemble` are inlined into it (numba
+IR), for the same reason: each separately compiled layer re-optimises all
+it calls (the right-hand side's compile alone, empty cache: 24.0 s with
+`assemble` apart, 19.7-20.4 s inlined). The Python front is `compiled.CompiledRHS`; `engine_cache`
+drops numba's cache when any engine source changes.
 """
 from __future__ import annotations
 
@@ -84,6 +90,22 @@ LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _
 # body's header in the int pool, loaded, int pool, float pool, scratch with
 # its inputs and outputs, node forces) -> mass
 INVARIANT_SIG = types.float64(types.int64, types.int64, _I1, _F1, _F1, _F2)
+
+# numba types of the kernel's arguments: prob and rwork (`compiled.CompiledRHS`),
+# data and work (`packing.pack`; the layouts above and in `_work_arrays`)
+_I2, _B1 = types.int64[:, ::1], types.boolean[::1]
+PROB_T = types.Tuple((_I1, _I1, _F2, _F1, _F1, _I2, _F2, _F2, _I1,
+                      types.Tuple((types.FunctionType(LOADS_SIG), _I1, _F1, _F1))))
+RWORK_T = types.Tuple((_F2, _F2, _F1, _F2, _F1))
+DATA_T = types.Tuple((_I2, _F2, _I1, _I1, _F2, _F1, _F3, _F3, _F2, _F1, _F1, _F1, _B1,
+                      types.FunctionType(INVARIANT_SIG)))
+WORK_T = types.Tuple((_F3, _F3, _F3, _F3, _F3, _F3, _F2, _F3, _F2, _F1, _F2, _F3, _F2, _F1, _F1, _F2))
+
+# signature of `free_system`, the right-hand side, which the loops below and in
+# `implicit.py` call through a pointer (`system_function.FREE_SYSTEM`, a cfunc):
+# (t, x, out, solve, bounds, prob, rwork, data, work) -> (status, index)
+SYSTEM_SIG = types.UniTuple(types.int64, 2)(types.float64, _F1, _F1, types.boolean, _F1, PROB_T, RWORK_T, DATA_T,
+                                            WORK_T)
 
 
 # ------------------------------------------------------------------ small helpers
@@ -616,7 +638,7 @@ def _project(b, ne, data, work, Mb, fy, M, F):
             M[il, ipool[e0 + m_]] += Mb[6 + l, 6 + m_]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F, with_kinematics=True):
     """M (n x n) and F (n) over all coordinates (eq. 22 before restriction);
     rows/columns of inactive coordinates are left zero. with_kinematics=False:
@@ -742,7 +764,7 @@ def lu_solve(A, x):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
     """The effects' loads, then assemble; returns a status code. loads =
     (cfunc of LOADS_SIG, ints, floats, state); `compiled.CompiledRHS` passes
@@ -759,16 +781,17 @@ def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data,
     return OK
 
 
-#: the `solve` argument of `free_system` in compiled callers: numba types a
-#: literal True as Literal[bool](True) and would compile free_system a second
-#: time beside the plain-bool version Python calls, re-optimising all it links
-#: (about 4 s of a first run's compile time); a numpy bool is typed plain bool
+#: the `solve` argument of `free_system` in compiled callers (a numpy bool,
+#: typed plain bool as in SYSTEM_SIG; numba types a literal True as
+#: Literal[bool](True))
 SOLVE = np.bool_(True)
 
 
-@njit(cache=True)
 def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
-    """Equations of the free coordinates at time t and state x = [q, qd]:
+    """Compiled once, as the cfunc `system_function.FREE_SYSTEM` of
+    SYSTEM_SIG, which the compiled loops take as their first argument
+    (`system`) and Python calls through `call_system`; not jitted here.
+    Equations of the free coordinates at time t and state x = [q, qd]:
     M_ff and F_f - M_fp qdd_p (eq. 21-22) into rwork (Mf, Ff); with `solve`,
     also out = [qd, qdd], qdd = M_ff^-1 (F_f - M_fp qdd_p) (Cholesky, which
     overwrites Mf; Gaussian elimination if M_ff is not positive definite),
@@ -839,7 +862,13 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
 
 
 @njit(cache=True)
-def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
+def call_system(system, t, x, out, solve, bounds, prob, rwork, data, work):
+    """`free_system` through its cfunc `system` (SYSTEM_SIG), for Python."""
+    return system(t, x, out, solve, bounds, prob, rwork, data, work)
+
+
+@njit(cache=True)
+def reaction_loads(system, ts, X, rows, slots, prob, rwork, data, work, out):
     """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
     `rows` at the states X[k] = [q, qd] and times ts[k] (a constraint
     coordinate's equation gives the load that holds it, first paper eq. 22)
@@ -853,7 +882,7 @@ def reaction_loads(ts, X, rows, slots, prob, rwork, data, work, out):
     inf = np.full(nf, np.inf)
     qdd = np.empty(n)
     for k in range(ts.shape[0]):
-        code, _ = free_system(ts[k], X[k], acc, SOLVE, inf, prob, rwork, data, work)
+        code, _ = system(ts[k], X[k], acc, SOLVE, inf, prob, rwork, data, work)
         if code != OK:
             return code
         state = prob[9][3]
@@ -882,7 +911,7 @@ def _rms(x):
 
 
 @njit(cache=True, inline="always")
-def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
+def initial_step(system, t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
     """scipy's select_initial_step for an error estimator of `order` from
     (t, y), f = f(t, y), with one right-hand side: (status, index, step), or
     (status, index, time of the failure) when that right-hand side fails."""
@@ -902,7 +931,7 @@ def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork
     h0 = min(h0, tmax)
     for i in range(nx):
         ys[i] = y[i] + h0 * f[i]
-    code, idx = free_system(t + h0, ys, f1, SOLVE, bounds, prob, rwork, data, work)
+    code, idx = system(t + h0, ys, f1, SOLVE, bounds, prob, rwork, data, work)
     if code != OK:
         return code, idx, t + h0
     for i in range(nx):
@@ -916,20 +945,21 @@ def initial_step(t, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork
 
 
 @njit(cache=True, inline="always")
-def start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
+def start(system, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work):
     """The start of an integration from (0, y): f = f(0, y) and scipy's
     initial step for an error estimator of `order` (`initial_step`):
     (status, index, step, n_rhs), or (status, index, time of the failure,
     n_rhs) when a right-hand side fails."""
-    code, idx = free_system(0.0, y, f, SOLVE, bounds, prob, rwork, data, work)
+    code, idx = system(0.0, y, f, SOLVE, bounds, prob, rwork, data, work)
     if code != OK:
         return code, idx, 0.0, 1
-    code, idx, h_abs = initial_step(0.0, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
+    code, idx, h_abs = initial_step(system, 0.0, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data,
+                                    work)
     return code, idx, h_abs, 2
 
 
 @njit(cache=True, inline="always")
-def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
+def _stage(system, s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
     """Runge-Kutta stage s from step start (t, y): ys = y + h sum_j A[s,j] K[j],
     K[s] = f(t + C[s] h, ys). Returns free_system's (code, index)."""
     for i in range(len(y)):
@@ -937,7 +967,7 @@ def _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
         for j in range(s):
             acc += K[j, i] * A[s, j]
         ys[i] = y[i] + acc * h
-    return free_system(t + C[s] * h, ys, K[s], SOLVE, bounds, prob, rwork, data, work)
+    return system(t + C[s] * h, ys, K[s], SOLVE, bounds, prob, rwork, data, work)
 
 
 #: the explicit Runge-Kutta pairs of `runge_kutta` (its `kind`)
@@ -945,7 +975,7 @@ DOP853_KIND, RK45_KIND = 0, 1
 
 
 @njit(cache=True)
-def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob, rwork, data, work, Y):
+def runge_kutta(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob, rwork, data, work, Y):
     """An explicit Runge-Kutta pair with the step control and initial step of
     scipy.integrate's RungeKutta, evaluated at t_eval (increasing, within
     [0, tmax]) into Y. One loop for both pairs, so that one compiled
@@ -980,7 +1010,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
     err_exp = -1.0 / (order + 1)
     SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
     t = 0.0
-    code, idx, h_abs, nfev = start(y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
+    code, idx, h_abs, nfev = start(system, y, f, tmax, max_step, rtol, atol, order, bounds, prob, rwork, data, work)
     if code != OK:
         return code, h_abs, nfev, 0, idx
     n_out = 0
@@ -1008,7 +1038,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
             for i in range(nx):
                 K[0, i] = f[i]
             for s in range(1, n_stages):
-                code, idx = _stage(s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                code, idx = _stage(system, s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                 nfev += 1
                 if code != OK:
                     return code, t + C[s] * h, nfev, n_out, idx
@@ -1017,7 +1047,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
                 for j in range(n_stages):
                     acc += K[j, i] * B[j]
                 y_new[i] = y[i] + h * acc
-            code, idx = free_system(t + h, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
+            code, idx = system(t + h, y_new, f_new, SOLVE, bounds, prob, rwork, data, work)
             nfev += 1
             if code != OK:
                 return code, t + h, nfev, n_out, idx
@@ -1062,7 +1092,7 @@ def runge_kutta(x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob,
         if n_out < nt and (t_eval[n_out] <= t or t >= tmax):
             if dop:
                 for s in range(n_stages + 1, A.shape[0]):
-                    code, idx = _stage(s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
+                    code, idx = _stage(system, s, t_old, h, y, K, ys, A, C, bounds, prob, rwork, data, work)
                     nfev += 1
                     if code != OK:
                         return code, t_old + C[s] * h, nfev, n_out, idx

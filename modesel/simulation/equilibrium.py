@@ -19,11 +19,12 @@ def static_equilibrium(built, t: float = 0.0) -> np.ndarray:
     if not len(sel):
         return built.q0.copy()
 
+    accelerations = _accelerations(built)
+
     def residual(x):
         q = built.q0.copy()
         q[sel] = x
-        M, F = built.M_F(t, q, built.qd0)
-        return np.linalg.solve(M, F)[sel]
+        return accelerations(t, q, built.qd0)[sel]
 
     sol = scipy.optimize.root(residual, built.q0[sel], method="hybr", options={"xtol": 1e-10})
     if not sol.success or not np.all(np.isfinite(sol.x)):
@@ -32,3 +33,27 @@ def static_equilibrium(built, t: float = 0.0) -> np.ndarray:
     q = built.q0.copy()
     q[sel] = sol.x
     return q
+
+
+def _accelerations(built):
+    """(t, q, qd) -> accelerations of the free coordinates [m/s^2, rad/s^2]:
+    the compiled right-hand side with the effects' loads (`Built.rhs`) where
+    it exists, the one the simulation integrates, with the first run's
+    compile in parallel (`first_run.compile_in_parallel`) before its first
+    call; else M^-1 F of `Built.M_F`. NaN where the compiled right-hand
+    side fails (the root finder then reports no equilibrium)."""
+    from modesel.simulation import first_run
+    first_run.compile_in_parallel(built)
+    rhs = built.rhs()
+    if not hasattr(rhs, "accelerations"):
+        def solved(t, q, qd):
+            M, F = rhs(t, q, qd)
+            return np.linalg.solve(M, F)
+        return solved
+
+    from modesel.multibody.kernel import OK
+
+    def compiled(t, q, qd):
+        qdd, code = rhs.accelerations(t, q, qd)
+        return qdd if code == OK else np.full_like(qdd, np.nan)
+    return compiled

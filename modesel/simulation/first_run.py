@@ -1,24 +1,25 @@
 """The first simulation after install (or after a source change), when numba
 compiles the engine into its on-disk cache.
 
-The engine has three independent parts to compile: the flexible bodies'
+The engine has four independent parts to compile: the flexible bodies'
 invariant route (`multibody.invariant_sums`, a cfunc), the effects' loads
 (`model.effects.compiled`: the cfunc `effect_loads` and the BEM, kinematics
-and load-distribution functions it calls) and the integration loop
-(`multibody.kernel`: the right-hand side, DOP853, the reaction loads), which
-needs only the *types* of the other two, first-class functions of
-`kernel.INVARIANT_SIG` and `kernel.LOADS_SIG`; a scene without effects runs
-the same loops with loads that add nothing (`multibody.no_loads`), and one
-whose bodies all take the node sums with a stand-in for the invariant route
+and load-distribution functions it calls), the right-hand side
+(`multibody.system_function`: the cfunc of `kernel.free_system`) and the
+loops that call it through a pointer (`kernel.runge_kutta` for DOP853 and
+RK45, `kernel.reaction_loads`). Each needs only the *types* of the others
+(first-class functions of `kernel.INVARIANT_SIG`, `kernel.LOADS_SIG` and
+`kernel.SYSTEM_SIG`); a scene without effects runs the same loops with loads
+that add nothing (`multibody.no_loads`), and one whose bodies all take the
+node sums with a stand-in for the invariant route
 (`packing.invariant_function`), so one compile serves every scene.
 `compile_in_parallel` compiles the invariant route (where the scene uses
-it) and the loads in a child process while this process compiles the
-right-hand side against `NO_LOADS` and the stand-in; the child then
-compiles the reaction loads over the output times on a small stand-in problem
-(the kernel's argument types do not depend on the model), while this process
-compiles DOP853. All land in numba's cache, from which the simulation then
-loads them. On the 2-core machine this takes the first run of `steady_08` from
-about 57 s to about 30 s of wall time (README, Benchmarks).
+it), the loads and then the reaction loads (for their argument types alone)
+in a child process, while this process compiles the right-hand side against
+`NO_LOADS` and the stand-in, and then the Runge-Kutta loop (where the scene
+uses the invariant route, whose compile lengthens the child's share, this
+process compiles the reaction loads too). All land in numba's cache, from
+which the simulation then loads them. Timings: README, Benchmarks.
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).
@@ -79,11 +80,8 @@ def die_with_parent_signal() -> None:
 
 
 def compile_in_parallel(built) -> bool:
-    """Compile the invariant route (where `built` uses it), the effects' loads
-    and then the kernel's reaction loads in a child process and the kernel's
-    right-hand side and its explicit Runge-Kutta loop (one for DOP853 and
-    RK45) here, at once,
-    when the loads have no numba cache yet (module doc), also for a scene
+    """Compile the parts of the engine (module doc) in a child process and
+    here at once, when the loads have no numba cache yet, also for a scene
     without effects (a later one with effects finds them compiled). Returns
     True when it ran. The child is waited for, and killed if this process is
     interrupted, so no process outlives the call; if it fails, the simulation
@@ -97,25 +95,18 @@ def compile_in_parallel(built) -> bool:
     package_root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
                                                         if p))
-    first = f"import {INVARIANT_MODULE}; " if uses_invariants(built.eq) else ""
-    code = f"{first}import {LOADS_MODULE}; from {__name__} import compile_reactions; compile_reactions()"
+    invariants = uses_invariants(built.eq)
+    first = f"import {INVARIANT_MODULE}; " if invariants else ""
+    loops = () if invariants else ("reaction_loads",)
+    code = f"{first}import {LOADS_MODULE}; from {__name__} import compile_loops; compile_loops({loops!r})"
     child = subprocess.Popen([sys.executable, "-c", code], env=env,
-                             stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
-
-    def right_hand_side_cached():
-        """Tell the child (a line on its stdin, then end of file)."""
-        try:
-            child.stdin.write(b"\n")
-            child.stdin.close()
-        except OSError:         # the child has ended: the simulation compiles what it lacks
-            pass
     try:
-        _compile_kernel(built, right_hand_side_cached)
+        _compile_system(built)
+        compile_loops(("runge_kutta",) + (("reaction_loads",) if invariants else ()))
         child.wait()
     finally:
-        if not child.stdin.closed:
-            right_hand_side_cached()
         if child.poll() is None:
             child.kill()
             child.wait()
@@ -130,47 +121,41 @@ def uses_invariants(eq) -> bool:
     return any(f is not None and choose_invariants(f) for _, _, f in eq.bodies)
 
 
-def _compile_kernel(built, rhs_done) -> None:
-    """Compile (or load) the kernel's right-hand side and its explicit
-    Runge-Kutta loop (`kernel.runge_kutta`, run here as DOP853: the same
-    compiled specialisation serves RK45) for
-    `built`'s equations with `NO_LOADS`: the argument types of the
-    simulation's own, with or without effects; `rhs_done()` once the
-    right-hand side is compiled (and in numba's cache)."""
+def _compile_system(built) -> None:
+    """Compile (or load) the right-hand side's cfunc (`system_function`) and
+    its Python front (`kernel.call_system`) for `built`'s equations with
+    `NO_LOADS` and the node sums only: the argument types of the
+    simulation's own, with or without effects or the invariant route (whose
+    cfunc the child compiles meanwhile)."""
     from modesel.multibody.compiled import CompiledRHS
-    from modesel.multibody.dop853_tableau import TABLE
-    # NO_LOADS: the loads' type; node sums only: the invariant route's type
-    # without its cfunc, which the child compiles meanwhile
     rhs = CompiledRHS(built.eq, built.linear, packed=built.eq.pack_free(invariants=False))
-    q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
-    rhs(0.0, q0, qd0)
-    rhs_done()
-    if rhs.compilable:
-        n = len(q0)
-        x0 = np.concatenate([q0, qd0])
-        rhs.dop853(x0, np.array([0.0, 1e-4]), 1e-4, 1e-6, np.full(2 * n, 1e-6), np.inf, np.full(n, np.inf),
-                   TABLE)
+    rhs(0.0, np.asarray(built.q0, float), np.asarray(built.qd0, float))
 
 
-#: the stand-in problem `compile_reactions` compiles on: the kernel's argument
-#: types do not depend on the model (tests/test_fast_start.py checks it);
-#: rigid, so that building it loads no invariant route (`packing.invariant_function`)
-STAND_IN_SCENE = {"turbine": "nrel5mw", "modes": {},
-                  "dofs": {"free": ["GeAz"]}, "initial": {"RotSpeed": 9.0}, "effects": {"gravity": True}}
+def loop_signatures() -> dict:
+    """{name: numba argument types} of the kernel's loops `runge_kutta` and
+    `reaction_loads` as `compiled.CompiledRHS` calls them: the right-hand
+    side as a first-class function of `kernel.SYSTEM_SIG`, the problem's
+    arrays of `kernel.PROB_T`, `RWORK_T`, `DATA_T`, `WORK_T` (the types of
+    every scene: tests/test_fast_start.py), the tableau of DOP853 (RK45's
+    has the same types)."""
+    from numba import typeof, types
+
+    from modesel.multibody import kernel
+    from modesel.multibody.dop853_tableau import TABLE
+    system = types.FunctionType(kernel.SYSTEM_SIG)
+    f1, f2, i1 = typeof(np.zeros(1)), typeof(np.zeros((1, 1))), typeof(np.zeros(1, np.int64))
+    problem = (kernel.PROB_T, kernel.RWORK_T, kernel.DATA_T, kernel.WORK_T)
+    return {"runge_kutta": (system, f1, f1, typeof(1.0), typeof(1.0), f1, typeof(1.0), f1, typeof(tuple(TABLE)),
+                            typeof(kernel.DOP853_KIND)) + problem + (f2,),
+            "reaction_loads": (system, f1, f2, i1, i1) + problem + (f2,)}
 
 
-def compile_reactions() -> None:
-    """Compile (or load) the kernel's reaction loads (`CompiledRHS.outputs`)
-    on the small `STAND_IN_SCENE` (`compile_in_parallel`'s child, after the
-    loads). It first waits for a line or the end of file on stdin: the parent
-    writes it once the right-hand side, which the reaction loads call, is in
-    numba's cache, so that this process loads it from there instead of
-    compiling it a second time."""
-    from modesel.multibody.compiled import CompiledRHS
-    from modesel.simulation.assembly import build
-    from modesel.simulation.scene import scene_from_dict
-    built = build(scene_from_dict(STAND_IN_SCENE), reactions=True)
-    sys.stdin.readline()
-    full = CompiledRHS(built.eq, built.linear, all_rows=True)
-    q0, qd0 = np.asarray(built.q0, float), np.asarray(built.qd0, float)
-    full.reactions(np.array([0.0]), q0[None, :], qd0[None, :], list(built.model.reactions.values())[:1])
+def compile_loops(names) -> None:
+    """Compile (or load) the kernel's loops `names` (of `loop_signatures`)
+    for their argument types, without running them: they call the
+    right-hand side through a pointer, so they need its type, not its code."""
+    from modesel.multibody import kernel
+    signatures = loop_signatures()
+    for name in names:
+        getattr(kernel, name).compile(signatures[name])
