@@ -172,18 +172,15 @@ class CompiledRHS:
     def _explicit(self, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
-        args = self.explicit_arguments(_system(), kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
-        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(*args)
-        return code, t_stop, nfev, idx, args[-1][:n_out]
-
-    def explicit_arguments(self, system, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
-        """The arguments of `kernel.runge_kutta` (its outputs Y last), as
-        `dop853` and `rk45` pass them; `simulation.first_run` compiles the
-        loop for their types."""
+        Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
-        return (system, np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
-                np.asarray(atol, float), float(max_step), np.asarray(bounds, float), tuple(table), kind, self.prob,
-                self.rwork, p.data, p.work, np.zeros((len(t_eval), len(x0))))
+        # argument types: `first_run.loop_signatures`, which the first run compiles
+        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(_system(), np.array(x0, float),
+                                                            np.asarray(t_eval, float), float(tmax), float(rtol),
+                                                            np.asarray(atol, float), float(max_step),
+                                                            np.asarray(bounds, float), tuple(table), kind,
+                                                            self.prob, self.rwork, p.data, p.work, Y)
+        return code, t_stop, nfev, idx, Y[:n_out]
 
     def jacobian(self, t, q, qd):
         """(dqdd/dq, dqdd/dqd) of the free coordinates at (t, q, qd) by the

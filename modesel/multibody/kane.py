@@ -266,9 +266,9 @@ class KaneEquations:
 
     @cached_property
     def _kernel_free_rows(self) -> CompiledRHS:
-        # `evaluate` (static equilibrium, scipy's integrators: no hot loop)
-        # takes the node sums, so that building a scene loads no invariant
-        # route (its cfunc then compiles beside the loads on a first run)
+        # `evaluate` (scipy's integrators, `Built.M_F`: no hot loop) takes
+        # the node sums, so that it loads no invariant route (a first run
+        # compiles its cfunc beside the loads)
         return CompiledRHS(self, packed=self.pack_free(invariants=False))
 
     def compiled_rhs(self, linear=(), *, all_rows=False) -> CompiledRHS:
