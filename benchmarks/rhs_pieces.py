@@ -50,7 +50,7 @@ def _kinematics(n, q, qd, data, work):
 def _loads(n, loads, t, q, qd, gen, fnodes, fflag, work):
     fn, ints, floats, state = loads
     for i in range(n):
-        fn(t, q, qd, work[0], work[1], gen, fnodes, fflag, ints, floats, state)
+        fn(t, q, qd, work[0], work[1], gen, fnodes, fflag, ints, floats, state, 0)
 
 
 @njit

@@ -87,13 +87,13 @@ class CompiledRHS:
                                   p.work)[0]
 
     def __call__(self, t, q, qd):
-        self._free(t, q, qd, False)
+        self._free(t, q, qd, kernel.NO_SOLVE)
         return self.rwork[3].copy(), self.rwork[4].copy()
 
     def accelerations(self, t, q, qd):
         """(qdd, status) at the free coordinates; status OK, SINGULAR or NON_FINITE_ACC
         (the state itself is checked by the caller)."""
-        code = self._free(t, q, qd, True)
+        code = self._free(t, q, qd, kernel.SOLVE)
         return self._out[self.n_free:].copy(), code
 
     def full(self, q_all, qd_all, generalized=None, node_forces=None):
@@ -114,6 +114,24 @@ class CompiledRHS:
         kernel.assemble(np.asarray(q_all, float), np.asarray(qd_all, float), self.prob[4], fnodes, flag, gen,
                         p.data, p.work, M, F)
         return M, F
+
+    def linear_model(self, t, q, qd, rel_step):
+        """(M, C, K) of the free coordinates at (t, q, qd) by the central
+        differences of `linearize.linearize` in one compiled call
+        (`kernel.force_differences`; NaN where an evaluation fails), or None
+        for a prescribed coordinate given as a Python function."""
+        if not self.compilable:
+            return None
+        n = self.n_free
+        x = np.concatenate([np.asarray(q, float), np.asarray(qd, float)])
+        M, K, C = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+        p = self.packed
+        # argument types: `first_run.loop_signatures`, which the first run compiles
+        code = kernel.force_differences(_system(), float(t), x, float(rel_step), self.prob, self.rwork, p.data,
+                                        p.work, M, K, C)
+        if code != kernel.OK:
+            M[:], C[:], K[:] = np.nan, np.nan, np.nan
+        return M, C, K
 
     def reactions(self, t, q, qd, rows):
         """Reaction loads F_r - M_r qdd [N or N m] of coordinates `rows`
@@ -182,19 +200,23 @@ class CompiledRHS:
                                                             self.prob, self.rwork, p.data, p.work, Y)
         return code, t_stop, nfev, idx, Y[:n_out]
 
-    def jacobian(self, t, q, qd):
+    def jacobian(self, t, q, qd, held=False):
         """(dqdd/dq, dqdd/dqd) of the free coordinates at (t, q, qd) by the
-        compiled forward differences `implicit.radau5` uses (n_free x n_free each)."""
+        compiled forward differences of `implicit.jacobian` (n_free x n_free
+        each); held: with the BEM loads and the tower drag held at their
+        values at (q, qd), as `implicit.radau5` forms it."""
         tk, prob = self._problem_at(t)
         n = self.n_free
         x = np.concatenate([q, qd]).astype(float)
         f = np.zeros(2 * n)
         p = self.packed
-        code, _ = kernel.call_system(_system(), tk, x, f, True, self._no_bounds, prob, self.rwork, p.data, p.work)
+        code, _ = kernel.call_system(_system(), tk, x, f, kernel.SOLVE, self._no_bounds, prob, self.rwork, p.data,
+                                     p.work)
         A, B = np.zeros((n, n)), np.zeros((n, n))
         if code == kernel.OK:
-            code = implicit.jacobian(_system(), tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n), self._no_bounds, prob,
-                                     self.rwork, p.data, p.work, np.zeros(2, np.int64))
+            code = implicit.jacobian(_system(), bool(held), tk, x, f, A, B, np.zeros(2 * n), np.zeros(2 * n),
+                                     np.zeros(2 * n), self._no_bounds, prob, self.rwork, p.data, p.work,
+                                     np.zeros(2, np.int64))
         if code != kernel.OK:
             A[:], B[:] = np.nan, np.nan
         return A, B

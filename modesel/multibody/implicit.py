@@ -13,7 +13,17 @@ computes once its Newton iteration has converged:
 - The Jacobian of x = [q, qd], f = [qd, qdd(t, q, qd)] is
   J = [[0, I], [dqdd/dq, dqdd/dqd]]: the upper half is exact; the lower half
   is formed by forward differences of the compiled accelerations (one
-  right-hand side per column, 2 n per Jacobian).
+  right-hand side per column, 2 n per Jacobian), with the BEM loads and the
+  tower drag held at their values at x (`kernel.SOLVE_HELD`): a column then
+  costs the structure and the generator alone, about half a full right-hand
+  side on the 38-DOF turbine. The stiff part of J is the structure's
+  (elastic stiffness, geometric stiffening, gyroscopic terms), which the
+  held columns keep; what they leave out, the aerodynamic damping and
+  stiffness (the flap modes' -6.6 1/s at 11.4 m/s, h |dJ| of about 0.3 at
+  the 40-ms steps of that case), slows Newton's convergence a little (5374
+  against 4974 right-hand sides of the iteration, 20 s of the 38-DOF turbine)
+  and changes nothing it converges to. The generator's law is evaluated in
+  every column (an induction generator's torque slope can be stiff).
 - The Newton systems (c I - J) [u; v] = [r1; r2] (c = mu / h, real or
   complex) are solved through their n x n Schur complement
   (c^2 I - c B - A) u = r2 + (c I - B) r1, v = c u - r1 (A = dqdd/dq,
@@ -33,8 +43,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE, STEP_COLLAPSE,
-                                      lu_factor, lu_solve_factored, start)
+from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE, SOLVE_HELD,
+                                      STEP_COLLAPSE, lu_factor, lu_solve_factored, start)
 
 S6 = 6 ** 0.5
 C = np.array([(4 - S6) / 10, (4 + S6) / 10, 1.0])
@@ -60,7 +70,9 @@ JAC_FLOOR = 1.0
 #: iterations with a convergence rate above this (scipy: 2 and 1e-3; a Newton
 #: failure always takes a new one). Measured on the 38-DOF turbine with BEM at
 #: rtol 1e-5, 20 s: scipy's values 97 Jacobians, 11484 right-hand sides;
-#: these 40 and 7918, the same steps (478 against 504) and tolerance.
+#: these 40 and 7918, the same steps (478 against 504) and tolerance. With the
+#: held loads (cheaper columns): 3 iterations 72 Jacobians, 10776 right-hand
+#: sides, 1.43 s; 4: 43, 8685, 1.20-1.22 s; 5: 38, 8520, 1.21 s.
 JAC_AFTER_ITERATIONS = 4
 JAC_AFTER_RATE = 0.1
 TABLE = (C, E, T, TI, P)
@@ -94,25 +106,38 @@ def _solve(c, Jb, S, piv, r, u, out):
 
 
 @njit(cache=True)
-def jacobian(system, t, x, f, Ja, Jb, scratch, out, inf_bounds, prob, rwork, data, work, counts):
+def jacobian(system, held, t, x, f, Ja, Jb, base, scratch, out, inf_bounds, prob, rwork, data, work, counts):
     """Lower half of the Jacobian at (t, x), f = f(t, x): Ja = dqdd/dq,
-    Jb = dqdd/dqd by forward differences. counts[0] (right-hand sides) and
-    counts[1] (Jacobians) are incremented. Returns a status code."""
+    Jb = dqdd/dqd by forward differences. held (bool): the columns hold the
+    BEM loads and the tower drag at their values at x (`kernel.SOLVE_HELD`),
+    differenced against a new evaluation at x into `base` (one more
+    right-hand side, which also sets the held loads); f is then not read.
+    counts[0] (right-hand sides) and counts[1] (Jacobians) are incremented.
+    Returns a status code."""
     counts[1] += 1
     n = Ja.shape[0]
+    mode = SOLVE
+    ref = f
+    if held:
+        code, _ = system(t, x, base, SOLVE, inf_bounds, prob, rwork, data, work)
+        counts[0] += 1
+        if code != OK:
+            return code
+        mode = SOLVE_HELD
+        ref = base
     for i in range(2 * n):
         scratch[i] = x[i]
     for j in range(2 * n):
         h = JAC_REL_STEP * max(abs(x[j]), JAC_FLOOR)
         scratch[j] = x[j] + h
         h = scratch[j] - x[j]
-        code, _ = system(t, scratch, out, SOLVE, inf_bounds, prob, rwork, data, work)
+        code, _ = system(t, scratch, out, mode, inf_bounds, prob, rwork, data, work)
         counts[0] += 1
         scratch[j] = x[j]
         if code != OK:
             return code
         for i in range(n):
-            d = (out[n + i] - f[n + i]) / h
+            d = (out[n + i] - ref[n + i]) / h
             if j < n:
                 Ja[i, j] = d
             else:
@@ -148,6 +173,7 @@ def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rw
     y = x0.copy()
     f = np.empty(nx)
     f_new = np.empty(nx)
+    f_held = np.empty(nx)
     y_new = np.empty(nx)
     scratch = np.empty(nx)
     tmp = np.empty(nx)
@@ -180,7 +206,8 @@ def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rw
         return code, h_abs, nfev, 0, idx, 0, n_lu, n_steps
     h_abs_old = -1.0            # -1: none (scipy None)
     error_norm_old = -1.0
-    code = jacobian(system, t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work, counts)
+    code = jacobian(system, True, t, y, f, Ja, Jb, f_held, scratch, tmp, inf_bounds, prob, rwork, data,
+                    work, counts)
     if code != OK:
         return code, t, nfev + counts[0], 0, -1, counts[1], n_lu, n_steps
     current_jac = True
@@ -313,8 +340,8 @@ def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rw
                 if not converged:
                     if current_jac:
                         break
-                    code = jacobian(system, t, y, f, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
-                                    counts)
+                    code = jacobian(system, True, t, y, f, Ja, Jb, f_held, scratch, tmp, inf_bounds, prob, rwork,
+                                    data, work, counts)
                     if code != OK:
                         return code, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
                     current_jac = True
@@ -360,8 +387,8 @@ def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rw
         if code != OK:
             return code, t_new, nfev + counts[0], n_out, idx, counts[1], n_lu, n_steps
         if recompute_jac:
-            code = jacobian(system, t_new, y_new, f_new, Ja, Jb, scratch, tmp, inf_bounds, prob, rwork, data, work,
-                            counts)
+            code = jacobian(system, True, t_new, y_new, f_new, Ja, Jb, f_held, scratch, tmp, inf_bounds, prob,
+                            rwork, data, work, counts)
             if code != OK:
                 return code, t_new, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
             current_jac = True

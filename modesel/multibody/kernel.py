@@ -72,18 +72,22 @@ N_FLOAT = 40
 
 
 # signature of a loads function (the effects' loads inside the compiled loop):
-# (t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state) -> status;
+# (t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held) -> status;
 # R, vec: the body frames of `kinematics` at (q_all, qd_all); it adds
 # generalised forces to gen (n_all,) [N, N m] and inertial node loads to
 # fnodes (rows of the packed node layout; columns 0-2 the force [N], 3-5 the
 # moment [N m]: `_add_node_forces`, `_flexible`), setting fflag[b] = 1 for each
 # body it loads (fnodes and fflag are zero on entry); ints, floats: its packed
-# parameters; state: its scratch and latched state. Status OK or NON_FINITE_ACC.
+# parameters; state: its scratch and latched state; held (0 or 1): 1 keeps
+# the loads of the effects that are costly and not stiff (the BEM loads, the
+# tower drag) as the previous call left them (fnodes and fflag are then not
+# cleared), for the columns of Radau's Jacobian (`SOLVE_HELD`). Status OK or
+# NON_FINITE_ACC.
 # It must be a numba cfunc (typed as a first-class function, so the loop that
 # calls it is compiled once for every scene and cached); a problem without
 # loads passes `no_loads.no_loads`, which adds none.
 _F1, _F2, _F3, _I1 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1]
-LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1)
+LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1, types.int64)
 
 # signature of the invariant route of a flexible body (`invariant_sums.py`,
 # called by `_flexible` through the pointer in data[13]): (offset of the
@@ -103,8 +107,9 @@ WORK_T = types.Tuple((_F3, _F3, _F3, _F3, _F3, _F3, _F2, _F3, _F2, _F1, _F2, _F3
 
 # signature of `free_system`, the right-hand side, which the loops below and in
 # `implicit.py` call through a pointer (`system_function.FREE_SYSTEM`, a cfunc):
-# (t, x, out, solve, bounds, prob, rwork, data, work) -> (status, index)
-SYSTEM_SIG = types.UniTuple(types.int64, 2)(types.float64, _F1, _F1, types.boolean, _F1, PROB_T, RWORK_T, DATA_T,
+# (t, x, out, solve, bounds, prob, rwork, data, work) -> (status, index);
+# solve: NO_SOLVE, SOLVE or SOLVE_HELD (`free_system`)
+SYSTEM_SIG = types.UniTuple(types.int64, 2)(types.float64, _F1, _F1, types.int64, _F1, PROB_T, RWORK_T, DATA_T,
                                             WORK_T)
 
 
@@ -765,26 +770,29 @@ def lu_solve(A, x):
 
 
 @njit(cache=True, inline="always")
-def _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
+def _loads_and_assemble(loads, held, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
     """The effects' loads, then assemble; returns a status code. loads =
     (cfunc of LOADS_SIG, ints, floats, state); `compiled.CompiledRHS` passes
     `no_loads` for a problem without effects, so that one compiled
-    specialisation of the loops serves every problem."""
+    specialisation of the loops serves every problem. held (0 or 1): the
+    loads function's `held` (LOADS_SIG)."""
     fn, l_int, l_flt, l_state = loads
     kinematics(q_all, qd_all, data, work)
-    fnodes[:, :] = 0.0
-    fflag[:] = 0
-    code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state)
+    if held == 0:
+        fnodes[:, :] = 0.0
+        fflag[:] = 0
+    code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state, held)
     if code != OK:
         return code
     assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
     return OK
 
 
-#: the `solve` argument of `free_system` in compiled callers (a numpy bool,
-#: typed plain bool as in SYSTEM_SIG; numba types a literal True as
-#: Literal[bool](True))
-SOLVE = np.bool_(True)
+#: the `solve` argument of `free_system` (numpy int64s, typed int64 as in
+#: SYSTEM_SIG; numba types a literal int as Literal[int]): M_ff and F_f only;
+#: also the accelerations; also the accelerations, with the effects' costly
+#: non-stiff loads held from the previous call (LOADS_SIG `held`)
+NO_SOLVE, SOLVE, SOLVE_HELD = np.int64(0), np.int64(1), np.int64(2)
 
 
 def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
@@ -796,7 +804,9 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     also out = [qd, qdd], qdd = M_ff^-1 (F_f - M_fp qdd_p) (Cholesky, which
     overwrites Mf; Gaussian elimination if M_ff is not positive definite),
     checking the state (finite, |q| <= bounds) and the accelerations as
-    integrate.py does.
+    integrate.py does. solve = SOLVE_HELD: as SOLVE, with the BEM loads and
+    the tower drag those of the previous call (the columns of Radau's
+    Jacobian: `implicit.jacobian`); NO_SOLVE: M_ff and F_f only.
     Returns (status, index of an offending coordinate or -1).
 
     prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
@@ -809,7 +819,7 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     st, M, F, Mf, Ff = rwork[0], rwork[1], rwork[2], rwork[3], rwork[4]
     q_all, qd_all, qddp, gen = st[0], st[1], st[2], st[3]
     nf = free.shape[0]
-    if solve:
+    if solve != NO_SOLVE:
         for i in range(2 * nf):
             if not np.isfinite(x[i]):
                 return NON_FINITE_STATE, i
@@ -832,7 +842,8 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         qddp[i] = pcoef[k, 2]
     for k in range(lin_idx.shape[0]):
         gen[lin_idx[k, 0]] -= lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
-    code = _loads_and_assemble(loads, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F)
+    code = _loads_and_assemble(loads, 1 if solve == SOLVE_HELD else 0, t, q_all, qd_all, gvec, fnodes, fflag, gen,
+                               data, work, M, F)
     if code != OK:
         return code, -1
     for a in range(nf):
@@ -842,7 +853,7 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         Ff[a] = v
         for b in range(nf):
             Mf[a, b] = M[free[a], free[b]]
-    if not solve:
+    if solve == NO_SOLVE:
         return OK, -1
     for a in range(nf):
         out[a] = x[nf + a]
@@ -899,6 +910,48 @@ def reaction_loads(system, ts, X, rows, slots, prob, rwork, data, work, out):
             for i in range(n):
                 v -= M[r, i] * qdd[i]
             out[k, j] = v
+    return OK
+
+
+@njit(cache=True)
+def force_differences(system, t, x, rel_step, prob, rwork, data, work, M0, K, C):
+    """The linear model of `linearize.linearize` at (t, x = [q, qd]) in one
+    compiled pass: M0 = M_ff, K = -dF_f/dq, C = -dF_f/dqd by central
+    differences with the steps h = rel_step max(1, |x_j|) (the same
+    arithmetic as `linearize`'s numpy loop, so the same numbers; one call
+    instead of 4 n + 1 calls from Python, each of which costs numba about
+    1 ms to type its arguments). Returns a status code."""
+    nf = x.shape[0] // 2
+    out = np.empty(2 * nf)
+    inf = np.full(nf, np.inf)
+    xs = x.copy()
+    Fp = np.empty(nf)
+    code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
+    if code != OK:
+        return code
+    for a in range(nf):
+        for b in range(nf):
+            M0[a, b] = rwork[3][a, b]
+    for c in range(2 * nf):
+        j = c // 2 + (c % 2) * nf              # q_0, qd_0, q_1, qd_1, ...: `linearize`'s order
+        h = rel_step * max(1.0, abs(x[j]))
+        xs[j] = x[j] + h
+        code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
+        if code != OK:
+            return code
+        for a in range(nf):
+            Fp[a] = rwork[4][a]
+        xs[j] = x[j] - h
+        code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
+        if code != OK:
+            return code
+        xs[j] = x[j]
+        for a in range(nf):
+            d = -(Fp[a] - rwork[4][a]) / (2 * h)
+            if j < nf:
+                K[a, j] = d
+            else:
+                C[a, j - nf] = d
     return OK
 
 

@@ -71,9 +71,15 @@ class Mode:
 
 
 def linearize(M_F, q0, qd0, names, t=0.0, rel_step=1e-6) -> LinearModel:
-    """M_F(t, q, qd) -> (M, F). Central differences with steps scaled by the state."""
+    """M_F(t, q, qd) -> (M, F). Central differences with steps scaled by the
+    state. A compiled right-hand side (`compiled.CompiledRHS`) forms the same
+    differences in one compiled call (its `linear_model`)."""
     q0 = np.asarray(q0, float)
     qd0 = np.asarray(qd0, float)
+    compiled = getattr(M_F, "linear_model", None)
+    model = None if compiled is None else compiled(t, q0, qd0, rel_step)
+    if model is not None:
+        return LinearModel(list(names), *model)
     n = len(q0)
     M0, _ = M_F(t, q0, qd0)
     K = np.zeros((n, n))

@@ -17,7 +17,7 @@ from modesel.multibody.kernel import LOADS_SIG
 
 
 @cfunc(LOADS_SIG, cache=True)
-def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
+def no_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
     """Adds no load (`kernel.LOADS_SIG`); returns the kernel's OK."""
     return 0
 

@@ -265,9 +265,10 @@ class BladeAerodynamics(Effect):
         o_ch = packer.scratch(len(self.CHANNELS))
         for k, name in enumerate(self.CHANNELS):
             packer.channel(name, o_ch + k)
+        o_gen = packer.scratch(built.eq.n_all)        # the generalised forces, kept for held loads
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
-                T_band.shape[1], L_band.shape[1]]
+                T_band.shape[1], L_band.shape[1], o_gen]
         ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         ints += list(T_first) + list(L_first)

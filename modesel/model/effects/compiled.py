@@ -81,10 +81,12 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 
 
 @njit(cache=True)
-def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
+def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held):
     """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
     station kinematics and section rotations, inflow, BEM, distribution to the nodes,
-    ElastoDyn's generalised-force correction when packed, node moments."""
+    ElastoDyn's generalised-force correction when packed, node moments.
+    The generalised forces are summed in a state slot (n_all) and added to
+    gen; held != 0: only that, with the node forces left as they are (LOADS_SIG)."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
@@ -93,7 +95,13 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
                                                           ints[p + 14], ints[p + 15], ints[p + 16])
     has_corr, o_mom, K, o_ch = ints[p + 17], ints[p + 18], ints[p + 19], ints[p + 20]
     WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
-    p += 23
+    kept = state[ints[p + 23]:ints[p + 23] + gen.shape[0]]      # the generalised forces of the last call
+    if held != 0:
+        for i in range(gen.shape[0]):
+            gen[i] += kept[i]
+        return
+    kept[:] = 0.0
+    p += 24
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -181,7 +189,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     distribute(fn, ft, en, et, T, T_first, forces)
     if has_corr != 0:
         D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
-        elastic_correction(fn, ft, en, et, R, blades, D, elastic, gen)
+        elastic_correction(fn, ft, en, et, R, blades, D, elastic, kept)
     cm_scale = floats[o_mom]
     om = o_mom + 1
     L = floats[om:om + K * WL].reshape((K, WL))
@@ -190,7 +198,9 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen):
     om += 3 * K
     nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
     node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, L_first, near, moff, nslopes,
-                 elastic, forces, gen)
+                 elastic, forces, kept)
+    for i in range(gen.shape[0]):
+        gen[i] += kept[i]
     for b in range(B):
         s = starts[b]
         for i in range(N):
@@ -229,7 +239,8 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
 
 @njit(cache=True)
 def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
-    """Tower drag node forces (effects/tower_drag.py)."""
+    """Tower drag node forces (effects/tower_drag.py); not called while the
+    loads are held (LOADS_SIG), which keeps those of the last call."""
     start, o_coef, o_scr = ints[p], ints[p + 1], ints[p + 2]
     body, m = ints[p + 3], ints[p + 4]
     pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
@@ -258,8 +269,12 @@ def _generator(t, ints, p, floats, state, qd_all, gen):
 
 
 @cfunc(LOADS_SIG, cache=True)
-def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state):
-    """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`)."""
+def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`).
+    held != 0: the BEM loads and the tower drag are those of the last call
+    (their node forces stay in fnodes, the BEM's generalised forces are added
+    again); the wind and the generator are evaluated (a generator law can be
+    stiff: its torque's slope stays in Radau's Jacobian)."""
     p = 1
     for _ in range(ints[0]):
         kind, length = ints[p], ints[p + 1]
@@ -269,9 +284,10 @@ def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, sta
             wind_params(floats[ints[a]:ints[a] + 9 * n].reshape((n, 9)), floats[ints[a + 2]],
                         floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
         elif kind == AERO:
-            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen)
+            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held)
         elif kind == TOWER_DRAG:
-            _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
+            if held == 0:
+                _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
         else:
             _generator(t, ints, a, floats, state, qd_all, gen)
         p += length
