@@ -268,8 +268,8 @@ def test_kernel_argument_types_do_not_depend_on_the_model():
 
 
 def test_loops_are_called_with_the_types_the_first_run_compiles():
-    """The integration loop, the reaction loads and the linear model, run as
-    a simulation runs them, take exactly the argument types `first_run.compile_loops` compiles
+    """The integration loop and the reaction loads (also the linear model's),
+    run as a simulation runs them, take exactly the argument types `first_run.compile_loops` compiles
     them for (else the first run would have compiled them for nothing), and
     the right-hand side's cfunc is of `kernel.SYSTEM_SIG`."""
     from numba import typeof, types
@@ -291,7 +291,6 @@ def test_loops_are_called_with_the_types_the_first_run_compiles():
     expected = first_run.loop_signatures()
     assert [tuple(s) for s in kernel.runge_kutta.signatures] == [expected["runge_kutta"]]
     assert [tuple(s) for s in kernel.reaction_loads.signatures] == [expected["reaction_loads"]]
-    assert [tuple(s) for s in kernel.force_differences.signatures] == [expected["force_differences"]]
 
 
 @pytest.mark.slow

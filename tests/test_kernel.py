@@ -408,8 +408,9 @@ def test_lumping_keeps_frames_or_whole_subtrees():
 
 
 def test_linear_model_in_one_compiled_call_equals_the_numpy_differences():
-    """`linearize` on a compiled right-hand side forms its central differences
-    in one compiled call (`kernel.force_differences`); the numpy loop over the
+    """`linearize` on a compiled right-hand side evaluates its central
+    differences' states in one compiled call (`CompiledRHS.linear_model`,
+    through `kernel.reaction_loads`); the numpy loop over the
     same right-hand side, called from Python 4 n + 1 times, gives the same
     M, C and K (the turbine with BEM, tower drag and generator: 11 DOFs, at a
     deflected, moving state, to 1e-9 of each matrix's largest entry: the BEM's

@@ -117,20 +117,36 @@ class CompiledRHS:
 
     def linear_model(self, t, q, qd, rel_step):
         """(M, C, K) of the free coordinates at (t, q, qd) by the central
-        differences of `linearize.linearize` in one compiled call
-        (`kernel.force_differences`; NaN where an evaluation fails), or None
-        for a prescribed coordinate given as a Python function."""
+        differences of `linearize.linearize`, with its steps and in its order,
+        the 4 n states evaluated in one compiled call (`kernel.reaction_loads`
+        with NO_SOLVE on the free rows: F_f at each; each call from Python
+        costs numba about 1 ms to type the arguments); NaN where an
+        evaluation fails. None for a prescribed coordinate given as a Python
+        function."""
         if not self.compilable:
             return None
         n = self.n_free
         x = np.concatenate([np.asarray(q, float), np.asarray(qd, float)])
-        M, K, C = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+        M = self(t, x[:n], x[n:])[0]
+        X = np.repeat(x[None, :], 4 * n, axis=0)
+        h = np.empty(2 * n)
+        for j in range(n):
+            for c, col in enumerate((j, n + j)):        # q_j, then qd_j (`linearize`'s order)
+                h[col] = rel_step * max(1.0, abs(x[col]))
+                X[4 * j + 2 * c, col] = x[col] + h[col]
+                X[4 * j + 2 * c + 1, col] = x[col] - h[col]
+        F = np.zeros((4 * n, n))
         p = self.packed
         # argument types: `first_run.loop_signatures`, which the first run compiles
-        code = kernel.force_differences(_system(), float(t), x, float(rel_step), self.prob, self.rwork, p.data,
-                                        p.work, M, K, C)
+        code = kernel.reaction_loads(_system(), kernel.NO_SOLVE, np.full(4 * n, float(t)), X,
+                                     self.eq.free_idx.astype(np.int64), np.zeros(0, np.int64), self.prob,
+                                     self.rwork, p.data, p.work, F)
         if code != kernel.OK:
-            M[:], C[:], K[:] = np.nan, np.nan, np.nan
+            return np.full((n, n), np.nan), np.full((n, n), np.nan), np.full((n, n), np.nan)
+        K, C = np.zeros((n, n)), np.zeros((n, n))
+        for j in range(n):
+            K[:, j] = -(F[4 * j] - F[4 * j + 1]) / (2 * h[j])
+            C[:, j] = -(F[4 * j + 2] - F[4 * j + 3]) / (2 * h[n + j])
         return M, C, K
 
     def reactions(self, t, q, qd, rows):
@@ -158,13 +174,13 @@ class CompiledRHS:
             state[self.channel_flag] = 1.0
         try:
             if self.compilable:
-                code = kernel.reaction_loads(_system(), t, X, idx, slots, self.prob, self.rwork, self.packed.data,
+                code = kernel.reaction_loads(_system(), kernel.SOLVE, t, X, idx, slots, self.prob, self.rwork, self.packed.data,
                                              self.packed.work, out)
             else:
                 code = kernel.OK
                 for k, tk in enumerate(t):
                     tk0, prob = self._problem_at(tk)
-                    code = kernel.reaction_loads(_system(), np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
+                    code = kernel.reaction_loads(_system(), kernel.SOLVE, np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
                                                  self.packed.data, self.packed.work, out[k:k + 1])
                     if code != kernel.OK:
                         break

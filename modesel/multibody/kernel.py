@@ -879,13 +879,16 @@ def call_system(system, t, x, out, solve, bounds, prob, rwork, data, work):
 
 
 @njit(cache=True)
-def reaction_loads(system, ts, X, rows, slots, prob, rwork, data, work, out):
+def reaction_loads(system, solve, ts, X, rows, slots, prob, rwork, data, work, out):
     """Generalised reaction forces F_r - M_r qdd of the (fixed) coordinates
     `rows` at the states X[k] = [q, qd] and times ts[k] (a constraint
     coordinate's equation gives the load that holds it, first paper eq. 22)
     into out[k, :len(rows)], and the effects' state at `slots` after the same
     evaluation (their output channels) into the columns after; needs arrays
-    packed with all rows. Returns a status code."""
+    packed with all rows. solve: SOLVE; NO_SOLVE leaves the free
+    accelerations out (qdd = the prescribed ones), which gives the free rows'
+    F_f of `free_system` at each state (the linear model's differences,
+    `CompiledRHS.linear_model`, with any packing). Returns a status code."""
     nf = X.shape[1] // 2
     n = rwork[1].shape[0]
     nr = rows.shape[0]
@@ -893,7 +896,7 @@ def reaction_loads(system, ts, X, rows, slots, prob, rwork, data, work, out):
     inf = np.full(nf, np.inf)
     qdd = np.empty(n)
     for k in range(ts.shape[0]):
-        code, _ = system(ts[k], X[k], acc, SOLVE, inf, prob, rwork, data, work)
+        code, _ = system(ts[k], X[k], acc, solve, inf, prob, rwork, data, work)
         if code != OK:
             return code
         state = prob[9][3]
@@ -903,55 +906,13 @@ def reaction_loads(system, ts, X, rows, slots, prob, rwork, data, work, out):
         for i in range(n):
             qdd[i] = qddp[i]
         for a in range(nf):
-            qdd[prob[0][a]] = acc[nf + a]
+            qdd[prob[0][a]] = acc[nf + a] if solve != NO_SOLVE else 0.0
         for j in range(rows.shape[0]):
             r = rows[j]
             v = F[r]
             for i in range(n):
                 v -= M[r, i] * qdd[i]
             out[k, j] = v
-    return OK
-
-
-@njit(cache=True)
-def force_differences(system, t, x, rel_step, prob, rwork, data, work, M0, K, C):
-    """The linear model of `linearize.linearize` at (t, x = [q, qd]) in one
-    compiled pass: M0 = M_ff, K = -dF_f/dq, C = -dF_f/dqd by central
-    differences with the steps h = rel_step max(1, |x_j|) (the same
-    arithmetic as `linearize`'s numpy loop, so the same numbers; one call
-    instead of 4 n + 1 calls from Python, each of which costs numba about
-    1 ms to type its arguments). Returns a status code."""
-    nf = x.shape[0] // 2
-    out = np.empty(2 * nf)
-    inf = np.full(nf, np.inf)
-    xs = x.copy()
-    Fp = np.empty(nf)
-    code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
-    if code != OK:
-        return code
-    for a in range(nf):
-        for b in range(nf):
-            M0[a, b] = rwork[3][a, b]
-    for c in range(2 * nf):
-        j = c // 2 + (c % 2) * nf              # q_0, qd_0, q_1, qd_1, ...: `linearize`'s order
-        h = rel_step * max(1.0, abs(x[j]))
-        xs[j] = x[j] + h
-        code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
-        if code != OK:
-            return code
-        for a in range(nf):
-            Fp[a] = rwork[4][a]
-        xs[j] = x[j] - h
-        code, _ = system(t, xs, out, NO_SOLVE, inf, prob, rwork, data, work)
-        if code != OK:
-            return code
-        xs[j] = x[j]
-        for a in range(nf):
-            d = -(Fp[a] - rwork[4][a]) / (2 * h)
-            if j < nf:
-                K[a, j] = d
-            else:
-                C[a, j - nf] = d
     return OK
 
 

@@ -7,20 +7,18 @@ invariant route (`multibody.invariant_sums`, a cfunc), the effects' loads
 and load-distribution functions it calls), the right-hand side
 (`multibody.system_function`: the cfunc of `kernel.free_system`) and the
 loops that call it through a pointer (`kernel.runge_kutta` for DOP853 and
-RK45, `kernel.reaction_loads`, `kernel.force_differences`). Each needs only
-the *types* of the others
+RK45, `kernel.reaction_loads`). Each needs only the *types* of the others
 (first-class functions of `kernel.INVARIANT_SIG`, `kernel.LOADS_SIG` and
 `kernel.SYSTEM_SIG`); a scene without effects runs the same loops with loads
 that add nothing (`multibody.no_loads`), and one whose bodies all take the
 node sums with a stand-in for the invariant route
 (`packing.invariant_function`), so one compile serves every scene.
 `compile_in_parallel` compiles the invariant route (where the scene uses
-it), the loads and then the reaction loads and the linear model (for their
-argument types alone) in a child process, while this process compiles the
-right-hand side against `NO_LOADS` and the stand-in, and then the
-Runge-Kutta loop (where the scene uses the invariant route, whose compile
-lengthens the child's share, this process compiles the reaction loads and
-the linear model too). All land in numba's cache, from
+it), the loads and then the reaction loads (for their argument types alone)
+in a child process, while this process compiles the right-hand side against
+`NO_LOADS` and the stand-in, and then the Runge-Kutta loop (where the scene
+uses the invariant route, whose compile lengthens the child's share, this
+process compiles the reaction loads too). All land in numba's cache, from
 which the simulation then loads them. Timings: README, Benchmarks.
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
@@ -99,14 +97,14 @@ def compile_in_parallel(built) -> bool:
                                                         if p))
     invariants = uses_invariants(built.eq)
     first = f"import {INVARIANT_MODULE}; " if invariants else ""
-    loops = () if invariants else ("reaction_loads", "force_differences")
+    loops = () if invariants else ("reaction_loads",)
     code = f"{first}import {LOADS_MODULE}; from {__name__} import compile_loops; compile_loops({loops!r})"
     child = subprocess.Popen([sys.executable, "-c", code], env=env,
                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
     try:
         _compile_system(built)
-        compile_loops(("runge_kutta",) + (("reaction_loads", "force_differences") if invariants else ()))
+        compile_loops(("runge_kutta",) + (("reaction_loads",) if invariants else ()))
         child.wait()
     finally:
         if child.poll() is None:
@@ -135,9 +133,9 @@ def _compile_system(built) -> None:
 
 
 def loop_signatures() -> dict:
-    """{name: numba argument types} of the kernel's loops `runge_kutta`,
-    `reaction_loads` and `force_differences` (the linear model) as
-    `compiled.CompiledRHS` calls them: the right-hand
+    """{name: numba argument types} of the kernel's loops `runge_kutta` and
+    `reaction_loads` (also the linear model's) as `compiled.CompiledRHS`
+    calls them: the right-hand
     side as a first-class function of `kernel.SYSTEM_SIG`, the problem's
     arrays of `kernel.PROB_T`, `RWORK_T`, `DATA_T`, `WORK_T` (the types of
     every scene: tests/test_fast_start.py), the tableau of DOP853 (RK45's
@@ -151,8 +149,7 @@ def loop_signatures() -> dict:
     problem = (kernel.PROB_T, kernel.RWORK_T, kernel.DATA_T, kernel.WORK_T)
     return {"runge_kutta": (system, f1, f1, typeof(1.0), typeof(1.0), f1, typeof(1.0), f1, typeof(tuple(TABLE)),
                             typeof(kernel.DOP853_KIND)) + problem + (f2,),
-            "reaction_loads": (system, f1, f2, i1, i1) + problem + (f2,),
-            "force_differences": (system, typeof(1.0), f1, typeof(1.0)) + problem + (f2, f2, f2)}
+            "reaction_loads": (system, typeof(kernel.SOLVE), f1, f2, i1, i1) + problem + (f2,)}
 
 
 def compile_loops(names) -> None:
