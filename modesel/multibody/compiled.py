@@ -174,14 +174,15 @@ class CompiledRHS:
             state[self.channel_flag] = 1.0
         try:
             if self.compilable:
-                code = kernel.reaction_loads(_system(), kernel.SOLVE, t, X, idx, slots, self.prob, self.rwork, self.packed.data,
-                                             self.packed.work, out)
+                code = kernel.reaction_loads(_system(), kernel.SOLVE, t, X, idx, slots, self.prob, self.rwork,
+                                             self.packed.data, self.packed.work, out)
             else:
                 code = kernel.OK
                 for k, tk in enumerate(t):
                     tk0, prob = self._problem_at(tk)
-                    code = kernel.reaction_loads(_system(), kernel.SOLVE, np.array([tk0]), X[k:k + 1], idx, slots, prob, self.rwork,
-                                                 self.packed.data, self.packed.work, out[k:k + 1])
+                    code = kernel.reaction_loads(_system(), kernel.SOLVE, np.array([tk0]), X[k:k + 1], idx, slots,
+                                                 prob, self.rwork, self.packed.data, self.packed.work,
+                                                 out[k:k + 1])
                     if code != kernel.OK:
                         break
         finally:
