@@ -19,8 +19,9 @@ computes once its Newton iteration has converged:
   side on the 38-DOF turbine. The stiff part of J is the structure's
   (elastic stiffness, geometric stiffening, gyroscopic terms), which the
   held columns keep; what they leave out, the aerodynamic damping and
-  stiffness (the flap modes' -6.6 1/s at 11.4 m/s, h |dJ| of about 0.3 at
-  the 40-ms steps of that case), slows Newton's convergence a little (5374
+  stiffness (the flap-rate diagonal of the 11-DOF turbine at 11.4 m/s is
+  -6.6 1/s with the BEM, under 0.2 1/s held: h |dJ| of about 0.3 at the
+  38-DOF turbine's 40-ms steps), slows Newton's convergence a little (5374
   against 4974 right-hand sides of the iteration, 20 s of the 38-DOF turbine)
   and changes nothing it converges to. The generator's law is evaluated in
   every column (an induction generator's torque slope can be stiff).
