@@ -179,6 +179,52 @@ def test_invariant_route_equals_node_sums_and_reference(turbine, case):
         assert 0 < p_inv.data[0][tower, kernel.NS] < p_inv.data[0][tower, kernel.NE]
 
 
+def test_load_points_give_the_sums_of_their_node_loads(turbine):
+    """Node loads f_k = sum_a T_ka g_a (forces and moments) of a transfer T
+    (N nodes, P < N points) on each blade give the same M and F at the
+    blades' load points (`packing.with_load_points`: the T-weighted mean
+    geometry, loads w_a g_a) as at the nodes, and as the numpy reference;
+    the tower (torsion shapes) and a transfer with P >= N keep their nodes."""
+    eq = KaneEquations(fem_turbine(turbine))
+    rng = np.random.default_rng(5)
+    blades = [b.name for b in eq.system.flexible_bodies() if b.name.startswith("blade")]
+    N = len(eq.system.body("blade1").node_mass)
+    P = 9
+    transfers = {}
+    for name in blades:
+        T = np.zeros((N, P))
+        for k in range(N):
+            a = rng.integers(0, P - 1)
+            T[k, a:a + 2] = rng.uniform(0.0, 1.0, 2)
+        transfers[name] = T
+    base = packing.pack(eq, invariants=True)
+    pts = packing.with_load_points(base, eq, dict(transfers, tower=np.ones((len(eq.system.body("tower").node_mass),
+                                                                           3))))
+    assert sorted(pts.load_points) == sorted(blades)               # not the tower (torsion)
+    assert not packing.with_load_points(base, eq, {"blade1": np.ones((N, N))}).load_points
+    assert pts.n_rows == base.n_rows + len(blades) * P
+    for q, qd in random_states(eq, rng):
+        gen = rng.normal(size=eq.n_all) * 1e3
+        g = {name: rng.normal(size=(P, 6)) * 1e3 for name in blades}
+        nodes = {name: transfers[name] @ g[name] for name in blades}
+        M_node, F_node, _ = assemble_by_route(eq, True, q, qd, nodes, gen)
+        fnodes = np.zeros((pts.n_rows, 6))
+        flag = np.zeros(eq.n_bodies, np.int64)
+        for name in blades:
+            lp = pts.load_points[name]
+            fnodes[lp.first:lp.first + P] = lp.weights[:, None] * g[name]
+            flag[eq.body_index[name]] = 1
+        M, F = np.empty((eq.n_all, eq.n_all)), np.empty(eq.n_all)
+        kernel.assemble(q, qd, eq.gravity.astype(float), fnodes, flag, gen, pts.data, pts.work, M, F)
+        Mr, Fr = eq.evaluate_full_reference(q, qd, nodes, gen)
+        assert_equal_rel(M, M_node, "M: load points against nodes")
+        assert_equal_rel(F, F_node, "F: load points against nodes")
+        assert_equal_rel(F, Fr, "F: load points against the reference")
+        F0 = eq.evaluate_full_reference(q, qd, None, gen)[1]       # the loads' own part, on its own scale
+        scale = np.abs(Fr - F0).max()
+        assert scale > 0 and np.abs((F - F0) - (Fr - F0)).max() <= 1e-8 * scale
+
+
 def test_route_choice_by_cost(turbine):
     """The packer takes the invariants where they are the cheaper: the
     blades of the 214-node fem beam with 3 modes per field, not a blade of

@@ -130,6 +130,56 @@ def bem_elements(rng):
             for j, name in enumerate(("a", "a_prime", "phi", "f_n", "f_t"))]
 
 
+@twin("blade_point_loads")
+def blade_point_loads(rng):
+    """The blade loads summed per station: the node loads of distribute and node_moments
+    (numba, the Python effect's) summed over the nodes / point_loads at one load point per
+    station (effects/aero.py, the compiled loop's): total force, total moment about the
+    blade origin at deflected positions (the load points at the T-weighted mean of the
+    nodes, packing.LoadPoints), and the elastic generalised forces, with ElastoDyn-like
+    moment points (a lumping other than the transfer, nearest nodes, offsets)."""
+    from modesel.model.effects.aero import distribute, moment_points, node_moments, point_loads, row_bands
+    B, M, N, K, ne = 3, 7, 23, 11, 4
+    out = []
+    for _ in range(2):
+        T = np.zeros((N, M))                       # a band of two stations per node
+        for i in range(N):
+            a = rng.integers(0, M - 1)
+            T[i, a:a + 2] = rng.uniform(0.1, 1.0, 2)
+        L = np.zeros((K, M))
+        for p in range(K):
+            a = rng.integers(0, M - 2)
+            L[p, a:a + 3] = rng.uniform(0.1, 1.0, 3)
+        near = rng.integers(0, N, K).astype(np.int64)
+        offset = rng.normal(size=(K, 3))
+        slopes = rng.normal(size=(N, 3, ne))
+        fn, ft, fm = rng.normal(size=(3, B, M)) * 1e3
+        en, et = unit(rng.normal(size=(B, M, 3))), unit(rng.normal(size=(B, M, 3)))
+        R = np.stack([random_rotation(rng) for _ in range(B + 1)])
+        blades = np.arange(1, B + 1, dtype=np.int64)
+        elastic = np.arange(B * ne, dtype=np.int64).reshape(B, ne)
+        gen0 = rng.normal(size=B * ne)
+        nodes = np.zeros((B, N, 6))
+        gen_nodes = gen0.copy()
+        distribute(fn, ft, en, et, *row_bands(T), nodes)
+        node_moments(fn, ft, fm, 1.0, en, et, R, blades, *row_bands(L), near, offset, slopes, elastic, nodes,
+                     gen_nodes)
+        w = T.sum(axis=0)
+        points = np.zeros((B, M, 6))
+        gen_points = gen0.copy()
+        point_loads(fn, ft, fm, 1.0, en, et, R, blades, w, *moment_points(L, near, offset, slopes), elastic,
+                    points, gen_points)
+        x = rng.normal(size=(N, 3)) * 10.0             # deflected node positions in the blade frame
+        xp = (T / w).T @ x
+        for b in range(B):
+            pos, pos_p = x @ R[blades[b]].T, xp @ R[blades[b]].T
+            out += [(f"blade {b} force", nodes[b, :, :3].sum(0), points[b, :, :3].sum(0)),
+                    (f"blade {b} moment", (np.cross(pos, nodes[b, :, :3]) + nodes[b, :, 3:]).sum(0),
+                     (np.cross(pos_p, points[b, :, :3]) + points[b, :, 3:]).sum(0))]
+        out.append(("elastic generalised forces", gen_nodes, gen_points))
+    return out
+
+
 @twin("blade_inflow")
 def blade_inflow(rng):
     """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles, the

@@ -136,6 +136,19 @@ def invariants(f) -> tuple[np.ndarray, np.ndarray]:
     return flat, sidx
 
 
+def with_load_rows(flat: np.ndarray, ne: int, sidx: np.ndarray, n_nodes: int, s0: np.ndarray,
+                   S: np.ndarray | None) -> np.ndarray:
+    """The flat block of a body (`invariants`) with its last two blocks, the
+    geometry of the rows that carry its loads (Sn on the shortening modes
+    sidx, s0n), those of the load points (s0 (P, 3), S (P, ne, ne) or None)
+    in place of its nodes' (`packing.with_load_points`)."""
+    ns = len(sidx)
+    tail = n_nodes * (ns * ns + 3)
+    assert flat.size == block_size(ne, ns, n_nodes)
+    Sn = np.zeros((len(s0), ns, ns)) if (S is None or not ns) else S[:, sidx][:, :, sidx]
+    return np.concatenate([flat[:flat.size - tail], np.ravel(Sn), np.ravel(s0)]).astype(float)
+
+
 def scratch_size(ne: int, ns: int) -> int:
     """Floats of the invariant route's scratch (`work[14]`): its inputs and
     outputs, and the intermediate sums of `invariant_sums`."""

@@ -57,12 +57,11 @@ class CompiledRHS:
         poly = eq.prescribed_polynomials
         self.compilable = poly is not None
         pcoef = np.zeros((len(eq.presc_idx), 3)) if poly is None else poly
-        n_nodes = max(sum(c for _, c in self.packed.node_start.values()), 1)
         #: whether effects' loads act inside the kernel
         self.has_loads = loads is not None
         self.prob = (eq.free_idx.astype(np.int64), eq.presc_idx.astype(np.int64), pcoef,
                      eq.fixed_values.astype(float), eq.gravity.astype(float), lin_idx, lin_kc,
-                     np.zeros((n_nodes, 6)), np.zeros(eq.n_bodies, np.int64),
+                     np.zeros((packed.n_rows, 6)), np.zeros(eq.n_bodies, np.int64),
                      _loads_tuple(_no_loads() if loads is None else loads))
         self.rwork = (np.zeros((4, n)), np.zeros((n, n)), np.zeros(n), np.zeros((nf, nf)), np.zeros(nf))
         self.n_free = nf
@@ -99,13 +98,16 @@ class CompiledRHS:
     def full(self, q_all, qd_all, generalized=None, node_forces=None):
         """M (n_all x n_all) and F (n_all) at all coordinates; node_forces
         {flexible body name: (N, 3) inertial forces [N], or (N, 6) forces and
-        moments [N m] (`KaneEquations`)}."""
+        moments [N m] (`KaneEquations`)}; not for a body whose loads the
+        packing takes at load points (`packing.with_load_points`)."""
         n = self.eq.n_all
         gen = np.zeros(n) if generalized is None else np.asarray(generalized, float)
         fnodes, flag = np.zeros_like(self.prob[7]), np.zeros_like(self.prob[8])
         if node_forces:
             fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
             for name, f in node_forces.items():
+                if name in self.packed.load_points:
+                    raise ValueError(f"{name} takes its loads at load points, not at its nodes")
                 first, count = self.packed.node_start[name]
                 fnodes[first:first + count, :np.shape(f)[1]] = f
                 flag[self.eq.body_index[name]] = 1

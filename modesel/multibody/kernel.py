@@ -57,13 +57,15 @@ _FAST = {"reassoc", "contract", "nsz"}
 
 # body_int columns
 (PARENT, KIND, ROT0, NROT, SH0, NSH, COL0, NCOL, NODE0, NNODE, NE, E0, HAS_S, HAS_JP, HAS_ETA, HAS_A,
- PHI0, S0, ETA0, KD0, INV0, NS, SIX0) = range(23)
-N_INT = 23
+ PHI0, S0, ETA0, KD0, INV0, NS, SIX0, LOAD0, NLOAD) = range(25)
+N_INT = 25
 # INV0: offset of a flexible body's invariants in the float pool (0: it
 # takes the node sums), NS its number of shortening modes, SIX0 the offset of
 # its header for the invariant route in the int pool (`invariant_sums`:
-# ne, ns, first node, node count, INV0, PHI0, shortening modes, position of
-# each elastic coordinate among them)
+# ne, ns, first load row, load row count, INV0, Phi of the load rows,
+# shortening modes, position of each elastic coordinate among them).
+# LOAD0, NLOAD: a flexible body's rows of the node loads (fnodes): its nodes
+# (LOAD0 = NODE0), or its load points (`packing.with_load_points`)
 # body kinds
 SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
 # body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
@@ -75,8 +77,9 @@ N_FLOAT = 40
 # (t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held) -> status;
 # R, vec: the body frames of `kinematics` at (q_all, qd_all); it adds
 # generalised forces to gen (n_all,) [N, N m] and inertial node loads to
-# fnodes (rows of the packed node layout; columns 0-2 the force [N], 3-5 the
-# moment [N m]: `_add_node_forces`, `_flexible`), setting fflag[b] = 1 for each
+# fnodes (rows of the packed node layout, or of a body's load points:
+# `packing.with_load_points`; columns 0-2 the force [N], 3-5 the moment
+# [N m]: `_add_node_forces`, `_flexible`), setting fflag[b] = 1 for each
 # body it loads (fnodes and fflag are zero on entry); ints, floats: its packed
 # parameters; state: its scratch and latched state; held (0 or 1): 1 keeps
 # the loads of the effects that are costly and not stiff (the BEM loads, the
@@ -364,7 +367,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     bi, bf, ipool, fpool = data[0], data[1], data[2], data[11]
     R, vec = work[0][b], work[1][b]
     e_scr, B3 = work[6], work[7]
-    ne, e0, a0, N = bi[b, NE], bi[b, E0], bi[b, NODE0], bi[b, NNODE]
+    ne, e0, N = bi[b, NE], bi[b, E0], bi[b, NNODE]
     has_eta = bi[b, HAS_ETA]
     qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
     Ct, Cr = B3[0], B3[1]
@@ -410,13 +413,15 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     else:
         mass = _node_sums(b, fnodes, fflag, data, work, Mee)
     if fflag[b]:
-        # node moments m_k: work through the body's angular velocity and, about
-        # the beam axis, through the torsion shapes eta (t = [0, e_g, eta]); the
-        # bodies carry no bending slopes, so the bending part of a node moment
-        # (m_k . (e_axis x dPhi_k/ds)) is the loading effect's own generalised
-        # force (effects/aero.py `node_moments`)
-        for k in range(N):
-            _mtv(R, fnodes[a0 + k, 3:6], fk)
+        # node moments m_k (on its load rows, the nodes or load points): work
+        # through the body's angular velocity and, about the beam axis, through
+        # the torsion shapes eta (t = [0, e_g, eta]; a body with eta has its
+        # nodes as load rows); the bodies carry no bending slopes, so the
+        # bending part of a node moment (m_k . (e_axis x dPhi_k/ds)) is the
+        # loading effect's own generalised force (effects/aero.py `node_moments`)
+        r0 = bi[b, LOAD0]
+        for k in range(bi[b, NLOAD]):
+            _mtv(R, fnodes[r0 + k, 3:6], fk)
             for i in range(3):
                 fr[i] += fk[i]
             if has_eta:

@@ -19,20 +19,22 @@ Jacobians; scratch, the last the flexible bodies' M_ee and the invariant
 route's intermediate sums). Each flexible body takes the node sums or its
 invariants, whichever is the cheaper (`body_integrals.choose_invariants`).
 Rigid bodies on constant joints are lumped here (`lumping.lump`).
+`with_load_points` gives a packing whose bodies take their loads at load
+points (`LoadPoints`) instead of their nodes.
 """
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numba.experimental.function_type  # noqa: F401  (numba's typeof of `_Unused`)
 import numpy as np
 from numba import types
 
 from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
-                                          INERTIA, INV0, INVARIANT_SIG, KD0, KIND, LUMPED, MASS, N_FLOAT, N_INT,
-                                          NCOL, NE, NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0, POLAR, R0,
-                                          RIGID, ROT0, S0, SH0, SH_E, SIX0, SKIP)
+                                          INERTIA, INV0, INVARIANT_SIG, KD0, KIND, LOAD0, LUMPED, MASS, N_FLOAT,
+                                          N_INT, NCOL, NE, NLOAD, NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0,
+                                          POLAR, R0, RIGID, ROT0, S0, SH0, SH_E, SIX0, SKIP)
 from modesel.multibody import body_integrals
 from modesel.multibody.lumping import RigidPart, constant_placement, lump, rigid_equivalent
 
@@ -46,6 +48,15 @@ class Packed:
     n_all: int
     n_bodies: int
     node_start: dict      # flexible body name -> (first node, node count)
+    #: flexible body name -> `LoadPoints` of a body whose node loads come at
+    #: load points (`with_load_points`); the others take them at their nodes
+    load_points: dict = field(default_factory=dict)
+
+    @property
+    def n_rows(self) -> int:
+        """Rows of the node loads (fnodes): every node, then the load points."""
+        return max(sum(c for _, c in self.node_start.values())
+                   + sum(len(p.weights) for p in self.load_points.values()), 1)
 
 
 def _joint_columns(joint, n):
@@ -113,6 +124,7 @@ def pack(eq, active=None, invariants=None) -> Packed:
         ne = len(f.idx)
         N = len(f.m)
         bi[k, NODE0], bi[k, NNODE], bi[k, NE] = n_nodes, N, ne
+        bi[k, LOAD0], bi[k, NLOAD] = n_nodes, N
         node_start[b.name] = (n_nodes, N)
         n_nodes += N
         flex_nodes.append((k, f))
@@ -182,6 +194,72 @@ def pack(eq, active=None, invariants=None) -> Packed:
             invariant_function(bool(np.any(bi[:, INV0] > 0))))
     work = _work_arrays(nb, n, ne_max, n_max) + (np.zeros(scratch), np.zeros((ne_max, ne_max)))
     return Packed(data, work, n, nb, node_start)
+
+
+@dataclass(frozen=True)
+class LoadPoints:
+    """P load points of a flexible body, each standing for the node loads of
+    one column of a fixed transfer T (N, P): node loads f_k = sum_a T_ka g_a
+    of point intensities g_a (e.g. a line load [N/m] at the blade's
+    aerodynamic stations, `effects/aero.py`). Every node sum a load enters
+    (f_t, f_r, f_e of A16, with s_k and B_k = Phi_k - a (S_k q)^T) is linear
+    in the node's s0_k, Phi_k and S_k, so a point with the T-weighted mean
+    geometry (s0, Phi, S below) loaded by F_a = w_a g_a gives exactly the
+    generalised forces of those node loads, and its moment M_a the work of
+    node moments with the same transfer through the body's angular velocity
+    (the body has no torsion shapes). first: its first row of the node loads
+    (fnodes); weights w_a = sum_k T_ka [m for a line load]."""
+
+    first: int
+    weights: np.ndarray     # (P,)
+    s0: np.ndarray          # (P, 3) [m]
+    Phi: np.ndarray         # (P, 3, ne)
+    S: np.ndarray | None    # (P, ne, ne) [1/m] or None
+
+
+def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
+    """`packed` with the loads of the bodies in `transfers` ({flexible body
+    name: T (N, P)}, `LoadPoints`) taken at load points: their rows follow
+    the nodes' in fnodes, and the body's loaded sums (`invariant_sums`, the
+    node moments of `kernel._flexible`) run over its P points instead of its
+    N nodes. Only a body on the invariant route without torsion shapes, with
+    fewer points than nodes, takes them; the others keep their nodes (`Packed.load_points` says which did).
+    The packed arrays of `packed` are not changed."""
+    bodies = {b.name: (k, f) for k, (b, _, f) in enumerate(eq.bodies) if f is not None}
+    bi, ipool, fpool = packed.data[0].copy(), packed.data[2].copy(), packed.data[11]
+    blocks = [fpool]
+    size = fpool.size
+    row = packed.n_rows if packed.load_points else sum(c for _, c in packed.node_start.values())
+    points = dict(packed.load_points)
+    for name, T in transfers.items():
+        k, f = bodies[name]
+        if bi[k, KIND] != FLEX or bi[k, INV0] == 0 or bi[k, HAS_ETA] or name in points:
+            continue
+        T = np.asarray(T, float)
+        if T.shape[1] >= T.shape[0]:
+            continue                            # no fewer points than nodes
+        w = T.sum(axis=0)
+        W = T * np.divide(1.0, w, out=np.zeros_like(w), where=w != 0.0)            # columns: weighted means
+        lp = LoadPoints(row, w, W.T @ f.s0, np.einsum("kp,kil->pil", W, f.Phi),
+                        None if f.S is None else np.einsum("kp,kab->pab", W, f.S))
+        ne, N, head = bi[k, NE], bi[k, NNODE], bi[k, SIX0]
+        sidx = ipool[head + 6:head + 6 + ipool[head + 1]]
+        inv = fpool[bi[k, INV0]:bi[k, INV0] + body_integrals.block_size(ne, len(sidx), N)]
+        blocks.append(body_integrals.with_load_rows(inv, ne, sidx, N, lp.s0, lp.S))
+        bi[k, INV0] = ipool[head + 4] = size
+        size += blocks[-1].size
+        blocks.append(np.ascontiguousarray(lp.Phi, float).ravel())
+        ipool[head + 5] = size
+        size += blocks[-1].size
+        ipool[head + 2], ipool[head + 3] = row, len(w)
+        bi[k, LOAD0], bi[k, NLOAD] = row, len(w)
+        points[name] = lp
+        row += len(w)
+    if len(points) == len(packed.load_points):
+        return packed
+    d = packed.data
+    data = (bi, d[1], ipool) + d[3:11] + (np.concatenate(blocks),) + d[12:]
+    return replace(packed, data=data, work=tuple(a.copy() for a in packed.work), load_points=points)
 
 
 class _Unused(types.WrapperAddressProtocol):

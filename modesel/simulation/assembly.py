@@ -24,6 +24,7 @@ from modesel.model.effects.base import BuildSpec
 from modesel.model.template import build_turbine
 from modesel.multibody.compiled import CompiledRHS
 from modesel.multibody.kane import KaneEquations
+from modesel.multibody.packing import with_load_points
 from modesel.multibody.system import Prescribed
 from modesel.simulation.equilibrium import static_equilibrium
 from modesel.simulation.scene import Scene
@@ -142,12 +143,19 @@ class Built:
             return self.eq.compiled_rhs(self.linear, all_rows=all_rows)
         from modesel.model.effects.compiled import CHANNEL_FLAG, pack_loads
         packed = self.eq.packed_full if all_rows else self.eq.packed_free
-        packing = pack_loads(self, packed.node_start)
+        transfers, shared = {}, set()
+        for e in self.acting:                   # a body loaded by two effects keeps its nodes
+            for name, T in e.load_points(self).items():
+                if name in transfers:
+                    shared.add(name)
+                transfers[name] = T
+        packed = with_load_points(packed, self.eq, {k: T for k, T in transfers.items() if k not in shared})
+        packing = pack_loads(self, packed)
         if packing is None:
             return self.M_F
         loads, channels = packing
         return CompiledRHS(self.eq, self.linear, all_rows=all_rows, loads=loads, channels=channels,
-                           channel_flag=CHANNEL_FLAG)
+                           channel_flag=CHANNEL_FLAG, packed=packed)
 
 
 def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:

@@ -71,6 +71,13 @@ Needs [effects.wind]. At every right-hand side:
    load moved to the nearest ElastoDyn node with the moment of its offset,
    and the element end moments of ModMesh's lumping, which ElastoDyn
    applies through the node's shape and slope.
+   The compiled loop (`effects/compiled.py`) takes these node loads, where
+   the blade's packing allows (`packing.with_load_points`), at one load
+   point per station, the T-weighted mean of the nodes (T the transfer
+   above: the same generalised forces, since every node sum is linear in
+   the node's geometry), with the station's force w_a f_a and moment
+   (`point_loads`): the blade's loaded sums then run over its M stations
+   instead of its N nodes.
 
 Channels (AeroDyn's names and units, see `channels`): RtAeroFxh [N] = sum
 of node forces along x_s, RtAeroMxh [N m] = sum of their moments and the
@@ -232,12 +239,21 @@ class BladeAerodynamics(Effect):
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
 
-    def compile_loads(self, built, packer, node_start):
+    def load_points(self, built):
+        """Each blade's node loads are T f of the station loads f (module doc 5)."""
+        return {name: self.transfer for name in self.names}
+
+    def compile_loads(self, built, packer, packed):
         """Pack this effect for the compiled loop (`effects.compiled._aero`):
-        the same arrays `__call__` uses, and `solve_into`'s arguments."""
+        the same arrays `__call__` uses, and `solve_into`'s arguments; the
+        blades' loads at their load points where `packed` has them (all
+        blades alike), else at their nodes."""
         from modesel.model.effects.packing import AERO, point_set_ints
         B, M = self.r.shape
         N = self.forces.shape[1]
+        points = [packed.load_points.get(n) for n in self.names]
+        at_points = all(lp is not None for lp in points)
+        rows = M if at_points else N
         s, buf = self.bem.solver, self.bem.buffers
         o = s.options
         grid, value, slope = s.polars.arrays
@@ -258,7 +274,11 @@ class BladeAerodynamics(Effect):
         K = len(self.near)
         o_mom = packer.add(np.concatenate([[self.cm_scale], L_band.ravel(), self.offset.ravel(),
                                            self.node_slopes.ravel()]))
-        scratch = 5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * N * 6
+        o_pts = 0
+        if at_points:
+            wm, ow, Dc, Dg = moment_points(self.lumping, self.near, self.offset, self.node_slopes)
+            o_pts = packer.add(np.concatenate([points[0].weights, wm, ow.ravel(), Dc.ravel(), Dg.ravel()]))
+        scratch = 5 * B * M * 3 + 9 * B * M + 3 + 13 * B * M + B * rows * 6
         o_scr = packer.scratch(scratch + B * M)
         # the last B M: each element's previous BEM root (NaN: none yet), `bem._solve_phi`'s guess
         packer.set_state(o_scr + scratch, np.full(B * M, np.nan))
@@ -268,16 +288,19 @@ class BladeAerodynamics(Effect):
         o_gen = packer.scratch(built.eq.n_all)        # the generalised forces, kept for held loads
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
-                T_band.shape[1], L_band.shape[1], o_gen]
-        ints += list(self.blades) + [node_start[n][0] for n in self.names] + list(buf.offset.ravel())
+                T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts]
+        first = [lp.first for lp in points] if at_points else [packed.node_start[n][0] for n in self.names]
+        ints += list(self.blades) + first + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         ints += list(T_first) + list(L_first)
         for st in self.stations:
             ints += point_set_ints(packer, st)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
                  o.skew_correction, o.max_iterations]
-        for nodes in self.nodes:            # read only for the channels (`compiled._rotor_channels`)
-            ints += point_set_ints(packer, nodes)
+        # the points of the loads, read only for the channels (`compiled._rotor_channels`)
+        for name, nodes, lp in zip(self.names, self.nodes, points):
+            ints += point_set_ints(packer, PointSet.of_points(built.eq, name, lp.s0, lp.Phi, lp.S)
+                                   if at_points else nodes)
         packer.record(AERO, ints)
 
     def channels(self, built):
@@ -574,6 +597,76 @@ def node_moments(fn, ft, fm, cm_scale, en, et, R, blades, L, first, near, offset
             l1 = Rb[0, 1] * M0 + Rb[1, 1] * M1 + Rb[2, 1] * M2
             for j in range(ne):
                 acc[j] += -slopes[n, 1, j] * l0 + slopes[n, 0, j] * l1
+        for j in range(ne):
+            generalized[elastic[b, j]] = acc[j]
+
+
+def moment_points(L, near, offset, slopes):
+    """(wm (M,), ow (M, 3), Dc (M, ne, 3), Dg (M, ne, 3)) of `point_loads`:
+    `node_moments`' lumping L (K, M) summed per station a over the moment
+    points p (offsets o_p (K, 3), near (K,) their nodes, slopes (N, 3, ne)
+    the modes' slopes s at the nodes): wm_a = sum_p L_pa, ow_a = sum_p L_pa
+    o_p, and the coefficients of the blade's elastic generalised force
+    sum_k Dc[a, j, k] c_k + Dg[a, j, k] f_k of the station's moment c and
+    line load f in the blade frame: sum_p L_pa (-s_y l_0 + s_x l_1) of the
+    point's moment l = c + o_p x f, s = slopes[near[p]]."""
+    L, o = np.asarray(L, float), np.asarray(offset, float)
+    sx, sy = slopes[near, 0, :], slopes[near, 1, :]                     # (K, ne)
+    Dc = np.zeros((L.shape[1], sx.shape[1], 3))
+    Dg = np.zeros_like(Dc)
+    Dc[:, :, 0], Dc[:, :, 1] = -L.T @ sy, L.T @ sx
+    Dg[:, :, 0] = L.T @ (sx * o[:, 2:3])
+    Dg[:, :, 1] = L.T @ (sy * o[:, 2:3])
+    Dg[:, :, 2] = -L.T @ (sy * o[:, 1:2] + sx * o[:, 0:1])
+    return L.sum(axis=0), L.T @ o, Dc, Dg
+
+
+@njit(cache=True)
+def point_loads(fn, ft, fm, cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic, loads, generalized):
+    """The blade loads of `distribute` and `node_moments` at one load point
+    per station (`packing.LoadPoints`, module doc 5): loads[b, a] = [w_a f_a,
+    wm_a c_a + (R_b ow_a) x f_a] with f_a the line load and c_a = cm_scale
+    fm_a e_z,a the pitching moment per unit length (`moment_points`: wm, ow,
+    Dc, Dg), and the blade's elastic generalised force of the node moments,
+    sum_a Dc_a (R_b^T c_a) + Dg_a (R_b^T f_a), added to `generalized` as
+    `node_moments` adds it. The same loads as the node loads of those two
+    functions, summed per station (the sums the kernel forms are linear in
+    them)."""
+    B, M = fn.shape[0], fn.shape[1]
+    ne = elastic.shape[1]
+    g = np.empty((M, 3))
+    acc = np.empty(ne)
+    for b in range(B):
+        Rb = R[blades[b]]
+        _line_loads(fn, ft, en, et, b, g)
+        for j in range(ne):
+            acc[j] = generalized[elastic[b, j]]
+        for a in range(M):
+            n0, n1, n2 = en[b, a, 0], en[b, a, 1], en[b, a, 2]
+            t0, t1, t2 = et[b, a, 0], et[b, a, 1], et[b, a, 2]
+            m = cm_scale * fm[b, a]
+            c0, c1, c2 = m * (t1 * n2 - t2 * n1), m * (t2 * n0 - t0 * n2), m * (t0 * n1 - t1 * n0)
+            d0 = Rb[0, 0] * ow[a, 0] + Rb[0, 1] * ow[a, 1] + Rb[0, 2] * ow[a, 2]
+            d1 = Rb[1, 0] * ow[a, 0] + Rb[1, 1] * ow[a, 1] + Rb[1, 2] * ow[a, 2]
+            d2 = Rb[2, 0] * ow[a, 0] + Rb[2, 1] * ow[a, 1] + Rb[2, 2] * ow[a, 2]
+            f0, f1, f2 = g[a, 0], g[a, 1], g[a, 2]
+            loads[b, a, 0] = w[a] * f0
+            loads[b, a, 1] = w[a] * f1
+            loads[b, a, 2] = w[a] * f2
+            loads[b, a, 3] = wm[a] * c0 + d1 * f2 - d2 * f1
+            loads[b, a, 4] = wm[a] * c1 + d2 * f0 - d0 * f2
+            loads[b, a, 5] = wm[a] * c2 + d0 * f1 - d1 * f0
+            if ne == 0:
+                continue
+            cb0 = Rb[0, 0] * c0 + Rb[1, 0] * c1 + Rb[2, 0] * c2
+            cb1 = Rb[0, 1] * c0 + Rb[1, 1] * c1 + Rb[2, 1] * c2
+            cb2 = Rb[0, 2] * c0 + Rb[1, 2] * c1 + Rb[2, 2] * c2
+            gb0 = Rb[0, 0] * f0 + Rb[1, 0] * f1 + Rb[2, 0] * f2
+            gb1 = Rb[0, 1] * f0 + Rb[1, 1] * f1 + Rb[2, 1] * f2
+            gb2 = Rb[0, 2] * f0 + Rb[1, 2] * f1 + Rb[2, 2] * f2
+            for j in range(ne):
+                acc[j] += (Dc[a, j, 0] * cb0 + Dc[a, j, 1] * cb1 + Dc[a, j, 2] * cb2
+                           + Dg[a, j, 0] * gb0 + Dg[a, j, 1] * gb1 + Dg[a, j, 2] * gb2)
         for j in range(ne):
             generalized[elastic[b, j]] = acc[j]
 

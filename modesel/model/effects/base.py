@@ -19,6 +19,9 @@ Life cycle, driven by `api.build` (hooks an effect does not need are no-ops):
 6. `channels(built)`: output channels (OpenFAST names and units) from the
    last `__call__`.
 
+An effect with a compiled form also has `compile_loads(built, packer,
+packed)` (`effects/compiled.py`) and may offer `load_points(built)`.
+
 Options: a scene gives `name = true` (defaults) or a table of options.
 Each effect declares its `OPTIONS` ({key: Option}); `parse_options`
 checks them and converts units, raising `ModeselError` naming the file and
@@ -136,6 +139,14 @@ class Effect:
     def linear(self, built) -> list:
         """Linear generalised spring-dampers [(row, column, k, c)]."""
         return []
+
+    def load_points(self, built) -> dict:
+        """{flexible body name: T (N, P)}: the node loads this effect puts on
+        the body are T g for P point intensities g, so that the compiled loop
+        may take them at P load points (`packing.with_load_points`; the body
+        then gets no other effect's node loads). `compile_loads` reads from
+        `packed.load_points` whether it did."""
+        return {}
 
     def channels(self, built) -> dict:
         """Output channels from the last `__call__` (OpenFAST names/units; the

@@ -1,6 +1,6 @@
 """The effects' loads inside the compiled integration loop.
 
-`pack_loads(built, node_start)` packs every switched-on effect that acts at
+`pack_loads(built, packed)` packs every switched-on effect that acts at
 every right-hand side into two flat arrays (ints, floats) plus a state
 array (scratch and latched switches), and `effect_loads` (a numba cfunc
 of `kernel.LOADS_SIG`, passed to the kernel as a first-class function, so
@@ -29,8 +29,8 @@ from numba import cfunc, njit
 from modesel.aero.bem import solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
-from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, rotor_loads,
-                                        rotor_power, station_rotations)
+from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
+                                        rotor_loads, rotor_power, station_rotations)
 from modesel.model.effects.generator import switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
@@ -38,11 +38,12 @@ from modesel.multibody.kinematics import points
 from modesel.model.effects.packing import AERO, CHANNEL_FLAG, GENERATOR, TOWER_DRAG, WIND, Packer  # noqa: F401
 
 
-def pack_loads(built, node_start):
+def pack_loads(built, packed):
     """((effect_loads, ints, floats, state) for `CompiledRHS(loads=...)`,
     {output channel: (state slot, scale)} for its `channels`), or None when
     an acting effect has no compiled form (`compile_loads`).
-    node_start: {flexible body: (first node, count)} of the packed arrays."""
+    packed: the kernel's `packing.Packed` (its rows of the node loads:
+    `node_start`, `load_points`)."""
     acting = built.acting
     if not acting:
         return None
@@ -55,7 +56,7 @@ def pack_loads(built, node_start):
         packer.record(WIND, [packer.add(w.table), len(w.table), packer.add([w.reference_height,
                                                                            w.reference_length])])
     for e in acting:
-        e.compile_loads(built, packer, node_start)
+        e.compile_loads(built, packer, packed)
     return (effect_loads,) + packer.arrays(), dict(packer.channels)
 
 
@@ -83,8 +84,9 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 @njit(cache=True)
 def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held):
     """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
-    station kinematics and section rotations, inflow, BEM, distribution to the nodes,
-    ElastoDyn's generalised-force correction when packed, node moments.
+    station kinematics and section rotations, inflow, BEM, distribution to the nodes
+    and node moments, or the same loads at the blades' load points (`point_loads`),
+    ElastoDyn's generalised-force correction when packed.
     The generalised forces are summed in a state slot (n_all) and added to
     gen; held != 0: only that, with the node forces left as they are (LOADS_SIG)."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
@@ -96,12 +98,13 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     has_corr, o_mom, K, o_ch = ints[p + 17], ints[p + 18], ints[p + 19], ints[p + 20]
     WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
     kept = state[ints[p + 23]:ints[p + 23] + gen.shape[0]]      # the generalised forces of the last call
+    rows, o_pts = ints[p + 24], ints[p + 25]          # rows per blade: nodes (N) or load points (M, o_pts > 0)
     if held != 0:
         for i in range(gen.shape[0]):
             gen[i] += kept[i]
         return
     kept[:] = 0.0
-    p += 24
+    p += 26
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -147,8 +150,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     o += 3
     out = state[o:o + 13 * B * M].reshape((13, B * M))
     o += 13 * B * M
-    forces = state[o:o + B * N * 6].reshape((B, N, 6))
-    o += B * N * 6
+    forces = state[o:o + B * rows * 6].reshape((B, rows, 6))
+    o += B * rows * 6
     guess = state[o:o + B * M]
     A = floats[o_ref:o_ref + 9 * M].reshape((M, 3, 3))
     so = o_slopes
@@ -183,27 +186,39 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
                    c[4], c[5], flags[6], out, guess)
-    T = floats[o_T:o_T + N * WT].reshape((N, WT))
     fn = out[9].reshape((B, M))
     ft = out[10].reshape((B, M))
-    distribute(fn, ft, en, et, T, T_first, forces)
     if has_corr != 0:
         D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
         elastic_correction(fn, ft, en, et, R, blades, D, elastic, kept)
     cm_scale = floats[o_mom]
-    om = o_mom + 1
-    L = floats[om:om + K * WL].reshape((K, WL))
-    om += K * WL
-    moff = floats[om:om + 3 * K].reshape((K, 3))
-    om += 3 * K
-    nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
-    node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, L_first, near, moff, nslopes,
-                 elastic, forces, kept)
+    if o_pts > 0:
+        w = floats[o_pts:o_pts + M]
+        wm = floats[o_pts + M:o_pts + 2 * M]
+        op = o_pts + 2 * M
+        ow = floats[op:op + 3 * M].reshape((M, 3))
+        op += 3 * M
+        Dc = floats[op:op + 3 * M * ne_el].reshape((M, ne_el, 3))
+        op += 3 * M * ne_el
+        Dg = floats[op:op + 3 * M * ne_el].reshape((M, ne_el, 3))
+        point_loads(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic,
+                    forces, kept)
+    else:
+        T = floats[o_T:o_T + N * WT].reshape((N, WT))
+        distribute(fn, ft, en, et, T, T_first, forces)
+        om = o_mom + 1
+        L = floats[om:om + K * WL].reshape((K, WL))
+        om += K * WL
+        moff = floats[om:om + 3 * K].reshape((K, 3))
+        om += 3 * K
+        nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
+        node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, L_first, near, moff,
+                     nslopes, elastic, forces, kept)
     for i in range(gen.shape[0]):
         gen[i] += kept[i]
     for b in range(B):
         s = starts[b]
-        for i in range(N):
+        for i in range(rows):
             for k in range(6):
                 fnodes[s + i, k] += forces[b, i, k]
         fflag[blades[b]] = 1

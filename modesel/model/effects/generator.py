@@ -198,7 +198,7 @@ class Generator(Effect):
         T, P = self.last
         return {"GenTq": T / 1e3, "GenPwr": P / 1e3}
 
-    def compile_loads(self, built, packer, node_start):
+    def compile_loads(self, built, packer, packed):
         """Pack this effect for the compiled loop (`effects.compiled`); the
         latches start as this effect's."""
         from modesel.model.effects.packing import GENERATOR

@@ -52,11 +52,11 @@ class TowerDragLoads(Effect):
         f = node_forces.get("tower")
         node_forces["tower"] = self.force if f is None else f + self.force   # overwritten next call
 
-    def compile_loads(self, built, packer, node_start):
+    def compile_loads(self, built, packer, packed):
         """Pack this effect for the compiled loop (`effects.compiled`)."""
         from modesel.model.effects.packing import TOWER_DRAG, point_set_ints
         m = len(self.coef)
-        ints = [node_start["tower"][0], packer.add(self.coef), packer.scratch(9 * m)]
+        ints = [packed.node_start["tower"][0], packer.add(self.coef), packer.scratch(9 * m)]
         packer.record(TOWER_DRAG, ints + point_set_ints(packer, self.nodes))
 
 
