@@ -280,6 +280,12 @@ def test_compiled_rhs_matches_evaluate(turbine):
         qdd, status = rhs.accelerations(1.3, qf, qdf)
         assert status == 0
         assert_equal_rel(qdd, np.linalg.solve(Mr, Fr), "qdd")
+        # a first call goes through numba's dispatcher, the later ones through the entry point it
+        # resolved (`compiled._entry_point`): the same compiled code, bit for bit
+        fresh = eq.compiled_rhs([("DrTr", "DrTr", k, c)])
+        M1, F1 = fresh(1.3, qf, qdf)
+        assert np.array_equal(M1, M) and np.array_equal(F1, F)
+    assert rhs._call is not None
 
 
 def test_dop853_tableau_is_scipys():
