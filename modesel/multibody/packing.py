@@ -223,8 +223,9 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
     the nodes' in fnodes, and the body's loaded sums (`invariant_sums`, the
     node moments of `kernel._flexible`) run over its P points instead of its
     N nodes. Only a body on the invariant route without torsion shapes, with
-    fewer points than nodes, takes them; the others keep their nodes (`Packed.load_points` says which did).
-    The packed arrays of `packed` are not changed."""
+    fewer points than nodes, takes them; the others keep their nodes
+    (`Packed.load_points` says which did). The arrays of `packed` are not
+    changed."""
     bodies = {b.name: (k, f) for k, (b, _, f) in enumerate(eq.bodies) if f is not None}
     bi, ipool, fpool = packed.data[0].copy(), packed.data[2].copy(), packed.data[11]
     blocks = [fpool]
