@@ -203,6 +203,9 @@ def test_load_points_give_the_sums_of_their_node_loads(turbine):
     assert sorted(pts.load_points) == sorted(blades)               # not the tower (torsion)
     assert not packing.with_load_points(base, eq, {"blade1": np.ones((N, N))}).load_points
     assert pts.n_rows == base.n_rows + len(blades) * P
+    assert pts.node_rows("tower") == base.node_start["tower"]
+    with pytest.raises(ValueError, match="load points"):     # its node rows are not read: no effect may load them
+        pts.node_rows("blade1")
     for q, qd in random_states(eq, rng):
         gen = rng.normal(size=eq.n_all) * 1e3
         g = {name: rng.normal(size=(P, 6)) * 1e3 for name in blades}

@@ -112,9 +112,7 @@ class CompiledRHS:
         if node_forces:
             fnodes, flag = np.zeros_like(fnodes), np.zeros_like(flag)
             for name, f in node_forces.items():
-                if name in self.packed.load_points:
-                    raise ValueError(f"{name} takes its loads at load points, not at its nodes")
-                first, count = self.packed.node_start[name]
+                first, count = self.packed.node_rows(name)
                 fnodes[first:first + count, :np.shape(f)[1]] = f
                 flag[self.eq.body_index[name]] = 1
         M, F = np.empty((n, n)), np.empty(n)

@@ -52,6 +52,14 @@ class Packed:
     #: load points (`with_load_points`); the others take them at their nodes
     load_points: dict = field(default_factory=dict)
 
+    def node_rows(self, name) -> tuple:
+        """(first row, count) of flexible body `name`'s node loads in fnodes.
+        A body that takes its loads at load points has no node rows the
+        kernel reads: ValueError, so that no effect's node loads are lost."""
+        if name in self.load_points:
+            raise ValueError(f"{name} takes its loads at load points, not at its nodes")
+        return self.node_start[name]
+
     @property
     def n_rows(self) -> int:
         """Rows of the node loads (fnodes): every node, then the load points."""

@@ -289,7 +289,7 @@ class BladeAerodynamics(Effect):
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
                 T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts]
-        first = [lp.first for lp in points] if at_points else [packed.node_start[n][0] for n in self.names]
+        first = [lp.first for lp in points] if at_points else [packed.node_rows(n)[0] for n in self.names]
         ints += list(self.blades) + first + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         ints += list(T_first) + list(L_first)

@@ -143,9 +143,10 @@ class Effect:
     def load_points(self, built) -> dict:
         """{flexible body name: T (N, P)}: the node loads this effect puts on
         the body are T g for P point intensities g, so that the compiled loop
-        may take them at P load points (`packing.with_load_points`; the body
-        then gets no other effect's node loads). `compile_loads` reads from
-        `packed.load_points` whether it did."""
+        may take them at P load points (`packing.with_load_points`; a body
+        two effects offer keeps its nodes). `compile_loads` reads from
+        `packed.load_points` whether it did; `packed.node_rows` refuses a
+        body at load points to an effect that would load its nodes."""
         return {}
 
     def channels(self, built) -> dict:

@@ -56,7 +56,7 @@ class TowerDragLoads(Effect):
         """Pack this effect for the compiled loop (`effects.compiled`)."""
         from modesel.model.effects.packing import TOWER_DRAG, point_set_ints
         m = len(self.coef)
-        ints = [packed.node_start["tower"][0], packer.add(self.coef), packer.scratch(9 * m)]
+        ints = [packed.node_rows("tower")[0], packer.add(self.coef), packer.scratch(9 * m)]
         packer.record(TOWER_DRAG, ints + point_set_ints(packer, self.nodes))
 
 
