@@ -184,38 +184,43 @@ def test_load_points_give_the_sums_of_their_node_loads(turbine):
     (N nodes, P < N points) on each blade give the same M and F at the
     blades' load points (`packing.with_load_points`: the T-weighted mean
     geometry, loads w_a g_a) as at the nodes, and as the numpy reference;
-    the tower (torsion shapes) and a transfer with P >= N keep their nodes."""
+    so does the tower, whose node moments also work through its torsion
+    shapes (the points carry their T-weighted mean); a transfer with P >= N
+    keeps the nodes."""
     eq = KaneEquations(fem_turbine(turbine))
     rng = np.random.default_rng(5)
     blades = [b.name for b in eq.system.flexible_bodies() if b.name.startswith("blade")]
     N = len(eq.system.body("blade1").node_mass)
     P = 9
+    assert np.any(eq.system.body("tower").torsion)                 # torsion shapes
+    counts = dict.fromkeys(blades, P) | {"tower": 5}
     transfers = {}
-    for name in blades:
-        T = np.zeros((N, P))
-        for k in range(N):
-            a = rng.integers(0, P - 1)
+    for name, p in counts.items():
+        n = len(eq.system.body(name).node_mass)
+        T = np.zeros((n, p))
+        for k in range(n):
+            a = rng.integers(0, p - 1)
             T[k, a:a + 2] = rng.uniform(0.0, 1.0, 2)
         transfers[name] = T
     base = packing.pack(eq, invariants=True)
-    pts = packing.with_load_points(base, eq, dict(transfers, tower=np.ones((len(eq.system.body("tower").node_mass),
-                                                                           3))))
-    assert sorted(pts.load_points) == sorted(blades)               # not the tower (torsion)
+    pts = packing.with_load_points(base, eq, transfers)
+    assert sorted(pts.load_points) == sorted(counts)
     assert not packing.with_load_points(base, eq, {"blade1": np.ones((N, N))}).load_points
-    assert pts.n_rows == base.n_rows + len(blades) * P
-    assert pts.node_rows("tower") == base.node_start["tower"]
+    assert pts.n_rows == base.n_rows + sum(counts.values())
+    blades_only = packing.with_load_points(base, eq, {name: transfers[name] for name in blades})
+    assert blades_only.node_rows("tower") == base.node_start["tower"]
     with pytest.raises(ValueError, match="load points"):     # its node rows are not read: no effect may load them
         pts.node_rows("blade1")
     for q, qd in random_states(eq, rng):
         gen = rng.normal(size=eq.n_all) * 1e3
-        g = {name: rng.normal(size=(P, 6)) * 1e3 for name in blades}
-        nodes = {name: transfers[name] @ g[name] for name in blades}
+        g = {name: rng.normal(size=(p, 6)) * 1e3 for name, p in counts.items()}
+        nodes = {name: transfers[name] @ g[name] for name in counts}
         M_node, F_node, _ = assemble_by_route(eq, True, q, qd, nodes, gen)
         fnodes = np.zeros((pts.n_rows, 6))
         flag = np.zeros(eq.n_bodies, np.int64)
-        for name in blades:
+        for name, p in counts.items():
             lp = pts.load_points[name]
-            fnodes[lp.first:lp.first + P] = lp.weights[:, None] * g[name]
+            fnodes[lp.first:lp.first + p] = lp.weights[:, None] * g[name]
             flag[eq.body_index[name]] = 1
         M, F = np.empty((eq.n_all, eq.n_all)), np.empty(eq.n_all)
         kernel.assemble(q, qd, eq.gravity.astype(float), fnodes, flag, gen, pts.data, pts.work, M, F)

@@ -309,22 +309,32 @@ def test_station_bem_equals_bem_solver(rated):
 
 
 def test_tower_drag_equals_eq51(rated):
+    """Eq. 51 by hand at AeroDyn's tower stations (the deck's TwrElev, its
+    diameter and Cd there), with the wind and the tower's velocity at the
+    stations' current positions, carried linearly to the nodes times their
+    weights; InflowWind's wind is zero at and below the ground, so the base
+    station (z = 0) has no drag."""
     from modesel.multibody.kinematics import PointSet
     b, q, qd = rated
     q_all, qd_all = state_at(b, 0.0, q, qd)
     gen, nodes = b.loads(0.0, q_all, qd_all)
     eff = b.effect("tower_drag")
-    pos, vel = PointSet.of_body(b.eq, "tower").kinematics(b.frames(q_all, qd_all), q_all, qd_all)
-    z_rest = b.model.system.body("tower").nodes[:, 2]
-    d, cd = eff.drag.properties(z_rest)
-    # eq. 51 by hand with the rest-height table values, the current wind and node velocity
-    u = 11.4 * (pos[:, 2] / b.effect("wind").field.reference_height) ** 0.0
+    table = eff.drag
+    np.testing.assert_allclose(eff.elevation, table.elevation, atol=1e-9)      # the table spans the tower
+    t = b.model.turbine
+    s0, Phi, S = b.model.station_shapes("tower", table.elevation)              # base at the ground
+    pos, vel = PointSet.of_points(b.eq, "tower", s0, Phi, S).kinematics(b.frames(q_all, qd_all), q_all, qd_all)
+    u = np.where(pos[:, 2] > 0.0, 11.4, 0.0)
     v_rel = np.stack([u - vel[:, 0], -vel[:, 1]], axis=1)
-    p = (0.5 * eff.rho * cd * d * np.linalg.norm(v_rel, axis=1))[:, None] * v_rel
-    expected = p * b.model.weights["tower"][:, None]
+    p = (0.5 * eff.rho * table.drag_coefficient * table.diameter * np.linalg.norm(v_rel, axis=1))[:, None] * v_rel
+    assert p[0, 0] == 0.0 and p[1, 0] > 0.5 * eff.rho * 5.7 * 11.0 ** 2
+    z_nodes = b.model.system.body("tower").nodes[:, 2] - t.tower.root_offset
+    expected = np.stack([np.interp(z_nodes, table.elevation, p[:, c]) for c in range(2)], axis=1)
+    expected *= b.model.weights["tower"][:, None]
     np.testing.assert_allclose(nodes["tower"][:, :2], expected, rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(eff.drag.load(z_rest, np.stack([u, 0 * u, 0 * u], 1), vel, eff.rho)[:, :2]
-                               * b.model.weights["tower"][:, None], expected, rtol=1e-12, atol=1e-9)
+    # AeroDyn's line load, linear between the stations: its integral over the tower, the trapezoid of
+    # the station loads, is what the node quadrature carries to the structure
+    assert nodes["tower"][:, 0].sum() == pytest.approx(np.trapezoid(p[:, 0], table.elevation), rel=1e-3)
 
 
 # ----------------------------------------------------------------------------- rated wind

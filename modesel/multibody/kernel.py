@@ -367,7 +367,7 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     bi, bf, ipool, fpool = data[0], data[1], data[2], data[11]
     R, vec = work[0][b], work[1][b]
     e_scr, B3 = work[6], work[7]
-    ne, e0, N = bi[b, NE], bi[b, E0], bi[b, NNODE]
+    ne, e0 = bi[b, NE], bi[b, E0]
     has_eta = bi[b, HAS_ETA]
     qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
     Ct, Cr = B3[0], B3[1]
@@ -415,17 +415,17 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
     if fflag[b]:
         # node moments m_k (on its load rows, the nodes or load points): work
         # through the body's angular velocity and, about the beam axis, through
-        # the torsion shapes eta (t = [0, e_g, eta]; a body with eta has its
-        # nodes as load rows); the bodies carry no bending slopes, so the
+        # the torsion shapes eta (t = [0, e_g, eta], one row per load row: at
+        # load points, their T-weighted mean); the bodies carry no bending slopes, so the
         # bending part of a node moment (m_k . (e_axis x dPhi_k/ds)) is the
         # loading effect's own generalised force (effects/aero.py `node_moments`)
-        r0 = bi[b, LOAD0]
-        for k in range(bi[b, NLOAD]):
+        r0, nl = bi[b, LOAD0], bi[b, NLOAD]
+        for k in range(nl):
             _mtv(R, fnodes[r0 + k, 3:6], fk)
             for i in range(3):
                 fr[i] += fk[i]
             if has_eta:
-                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
+                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + nl * ne].reshape((nl, ne))
                 ma = fk[0] * ax[0] + fk[1] * ax[1] + fk[2] * ax[2]
                 for l in range(ne):
                     fe[l] += ma * eta[k, l]

@@ -215,14 +215,17 @@ class LoadPoints:
     geometry (s0, Phi, S below) loaded by F_a = w_a g_a gives exactly the
     generalised forces of those node loads, and its moment M_a the work of
     node moments with the same transfer through the body's angular velocity
-    (the body has no torsion shapes). first: its first row of the node loads
-    (fnodes); weights w_a = sum_k T_ka [m for a line load]."""
+    and, about the beam axis, through its torsion shapes eta (their mean
+    too: the work of a node moment is linear in eta_k). first: its first
+    row of the node loads (fnodes); weights w_a = sum_k T_ka [m for a line
+    load]."""
 
     first: int
     weights: np.ndarray     # (P,)
     s0: np.ndarray          # (P, 3) [m]
     Phi: np.ndarray         # (P, 3, ne)
     S: np.ndarray | None    # (P, ne, ne) [1/m] or None
+    eta: np.ndarray | None = None   # (P, ne) [rad] or None: no torsion shapes
 
 
 def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
@@ -230,8 +233,8 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
     name: T (N, P)}, `LoadPoints`) taken at load points: their rows follow
     the nodes' in fnodes, and the body's loaded sums (`invariant_sums`, the
     node moments of `kernel._flexible`) run over its P points instead of its
-    N nodes. Only a body on the invariant route without torsion shapes, with
-    fewer points than nodes, takes them; the others keep their nodes
+    N nodes. Only a body on the invariant route with fewer points than
+    nodes takes them; the others keep their nodes
     (`Packed.load_points` says which did). The arrays of `packed` are not
     changed."""
     bodies = {b.name: (k, f) for k, (b, _, f) in enumerate(eq.bodies) if f is not None}
@@ -242,7 +245,7 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
     points = dict(packed.load_points)
     for name, T in transfers.items():
         k, f = bodies[name]
-        if bi[k, KIND] != FLEX or bi[k, INV0] == 0 or bi[k, HAS_ETA] or name in points:
+        if bi[k, KIND] != FLEX or bi[k, INV0] == 0 or name in points:
             continue
         T = np.asarray(T, float)
         if T.shape[1] >= T.shape[0]:
@@ -250,7 +253,8 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
         w = T.sum(axis=0)
         W = T * np.divide(1.0, w, out=np.zeros_like(w), where=w != 0.0)            # columns: weighted means
         lp = LoadPoints(row, w, W.T @ f.s0, np.einsum("kp,kil->pil", W, f.Phi),
-                        None if f.S is None else np.einsum("kp,kab->pab", W, f.S))
+                        None if f.S is None else np.einsum("kp,kab->pab", W, f.S),
+                        None if f.eta is None else W.T @ f.eta)
         ne, N, head = bi[k, NE], bi[k, NNODE], bi[k, SIX0]
         sidx = ipool[head + 6:head + 6 + ipool[head + 1]]
         inv = fpool[bi[k, INV0]:bi[k, INV0] + body_integrals.block_size(ne, len(sidx), N)]
@@ -260,6 +264,10 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
         blocks.append(np.ascontiguousarray(lp.Phi, float).ravel())
         ipool[head + 5] = size
         size += blocks[-1].size
+        if lp.eta is not None:                # the points' torsion, read by the node-moment loop only
+            blocks.append(np.ascontiguousarray(lp.eta, float).ravel())
+            bi[k, ETA0] = size
+            size += blocks[-1].size
         ipool[head + 2], ipool[head + 3] = row, len(w)
         bi[k, LOAD0], bi[k, NLOAD] = row, len(w)
         points[name] = lp

@@ -195,7 +195,7 @@ class BladeAerodynamics(Effect):
                 line, nodes_span, phi, self.node_slopes, structural, self.transfer))
             self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
         else:
-            self.transfer = _sampled_transfer(span, nodes_span, self.weights)
+            self.transfer = sampled_transfer(span, nodes_span, self.weights)
             self.lumping = self.transfer
             self.near = np.arange(len(nodes_span), dtype=np.int64)
             self.offset = np.zeros((len(nodes_span), 3))
@@ -368,7 +368,7 @@ def rotor_power(torque, omega, v, rho, rmax):
     return power, power / (0.5 * rho * np.pi * rmax * rmax * v ** 3)
 
 
-def _sampled_transfer(stations, at, weights):
+def sampled_transfer(stations, at, weights):
     """(nodes, stations) matrix T: node force = sum_a T[i, a] f_a with f
     interpolated linearly to the node and times its weight (module doc 5)."""
     lo, frac = _linear_weights(stations, at)

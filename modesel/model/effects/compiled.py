@@ -254,18 +254,29 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
 
 @njit(cache=True)
 def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
-    """Tower drag node forces (effects/tower_drag.py); not called while the
-    loads are held (LOADS_SIG), which keeps those of the last call."""
-    start, o_coef, o_scr = ints[p], ints[p + 1], ints[p + 2]
-    body, m = ints[p + 3], ints[p + 4]
+    """Tower drag (effects/tower_drag.py): the line load at the stations,
+    carried to the tower's load rows by the transfer's bands (its nodes) or
+    the points' weights (its load points); not called while the loads are
+    held (LOADS_SIG), which keeps those of the last call."""
+    start, rows, width, o_coef, o_scr, o_band = ints[p], ints[p + 1], ints[p + 2], ints[p + 3], ints[p + 4], ints[p + 5]
+    first = ints[p + 6:p + 6 + rows]
+    a = p + 6 + rows
+    body, m = ints[a], ints[a + 1]
     pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
     vel = state[o_scr + 3 * m:o_scr + 6 * m].reshape((m, 3))
-    force = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
-    _point_kinematics(ints, p + 3, floats, R, vec, q_all, qd_all, pos, vel)
-    drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], force)
-    for i in range(m):
-        for k in range(3):
-            fnodes[start + i, k] += force[i, k]
+    line = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
+    _point_kinematics(ints, a, floats, R, vec, q_all, qd_all, pos, vel)
+    drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], line)
+    band = floats[o_band:o_band + rows * width].reshape((rows, width))
+    for i in range(rows):
+        f0 = first[i]
+        v0 = v1 = 0.0
+        for k in range(width):
+            w = band[i, k]
+            v0 += w * line[f0 + k, 0]
+            v1 += w * line[f0 + k, 1]
+        fnodes[start + i, 0] += v0
+        fnodes[start + i, 1] += v1
     fflag[body] = 1
 
 
