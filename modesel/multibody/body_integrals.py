@@ -112,6 +112,11 @@ def invariants(f) -> tuple[np.ndarray, np.ndarray]:
     S = f.S[:, sidx][:, :, sidx] if ns else np.zeros((len(m), 0, 0))
     Jp = np.zeros(len(m)) if f.Jp is None else f.Jp
     eta = np.zeros((len(m), ne)) if f.eta is None else f.eta
+    # the node sums of products as matrix products over the nodes k (BLAS)
+    N = len(m)
+    P2, S2 = Phi.reshape(N, 3 * ne), S.reshape(N, ns * ns)
+    mP2 = m[:, None] * P2
+    XPP = (mP2.T @ P2).reshape(3, ne, 3, ne)                   # sum m Phi_il Phi_jm
     values = {
         "M0": m.sum(),
         "ms0": m @ s0,
@@ -119,12 +124,12 @@ def invariants(f) -> tuple[np.ndarray, np.ndarray]:
         "mS": np.einsum("k,kab->ab", m, S),
         "Js0": np.einsum("k,ki,kj->ij", m, s0, s0),
         "Xs0P": np.einsum("k,ki,kjl->ijl", m, s0, Phi),
-        "XPP": np.einsum("k,kil,kjm->iljm", m, Phi, Phi),
-        "P0": np.einsum("k,kil,kim->lm", m, Phi, Phi),
-        "K1": np.einsum("ijh,k,kjl,khm->ilm", _EPS, m, Phi, Phi),
+        "XPP": XPP,
+        "P0": np.einsum("ilim->lm", XPP),
+        "K1": np.einsum("ijh,jlhm->ilm", _EPS, XPP),              # eps_ijh sum m Phi_jl Phi_hm
         "Ys0S": np.einsum("k,ki,kab->iab", m, s0, S),
-        "YPS": np.einsum("k,kil,kab->ilab", m, Phi, S),
-        "ZSS": np.einsum("k,kab,kcd->abcd", m, S, S),
+        "YPS": (mP2.T @ S2).reshape(3, ne, ns, ns),
+        "ZSS": ((m[:, None] * S2).T @ S2).reshape(ns, ns, ns, ns),
         "Jsum": Jp.sum(),
         "Jeta": Jp @ eta,
         "Jee": np.einsum("k,kl,km->lm", Jp, eta, eta),
