@@ -409,6 +409,17 @@ def compiled_loads(rng):
             for pair in rhs_pairs(turbine_with(effects, modes=modes), rng, what, n=n, speeds=speeds)]
 
 
+@twin("tower_drag_nodes")
+def tower_drag_nodes(rng):
+    """The right-hand side with the tower drag carried to the tower's nodes by the transfer's bands
+    (a tower that keeps its nodes; the scenes above take the drag at the tower's load points) / the
+    Python effect + KaneEquations (numpy reference and kernel)."""
+    built = turbine_with({"wind": {"speed": 9.0, "shear": 0.2}, "tower_drag": True})
+    built.effect("tower_drag").load_points = lambda built: {}           # no load points offered
+    assert not built.rhs().packed.load_points
+    return rhs_pairs(built, rng, "tower drag at the nodes")
+
+
 def channel_pairs(built, rng, what, n=6, speeds=(0.3, 1.6)):
     """The effects' output channels at n states in increasing time: one
     compiled pass (`CompiledRHS.outputs`, the effects write them inside the
