@@ -99,6 +99,26 @@ def test_polar_lookup_matches_file_rows(deck):
         np.testing.assert_allclose(c, [polar.cl[:-1], polar.cd[:-1], polar.cm[:-1]], atol=1e-12)
 
 
+def test_polar_lookup_equals_np_interp(deck):
+    """The compiled lookup on the common grid (`PolarSet.coefficients`) gives
+    each airfoil's np.interp on its own file rows (the numpy reference,
+    `Polar.coefficients`) at every grid angle and a hair either side of it,
+    at random angles and at and beyond the circle's ends (wrapped); NaN
+    gives NaN."""
+    polars = deck.blade.polars
+    g = polars.grid
+    tiny = 1e-12
+    rng = np.random.default_rng(11)
+    alpha = np.concatenate([g, g - tiny, g + tiny, rng.uniform(-np.pi, np.pi, 5000),
+                            [-np.pi, np.pi, -4.0, 4.0, 7.5]])
+    for k, polar in enumerate(polars.polars):
+        got = polars.coefficients(alpha, k)
+        ref = polar.coefficients(alpha)
+        for c in range(3):
+            np.testing.assert_allclose(got[c], ref[c], rtol=0, atol=1e-12 * max(1.0, np.abs(ref[c]).max()))
+    assert np.all(np.isnan(polars.coefficients(np.array([np.nan]), 0)))
+
+
 def test_bad_blade_file_is_a_user_error(tmp_path):
     folder = tmp_path / "deck"
     shutil.copytree(DATA, folder, ignore=shutil.ignore_patterns("*.txt", "*ElastoDyn*", "*ED*"))
