@@ -9,7 +9,7 @@ its tower nodes), with the tower's own velocity there and the wind at the
 stations' current heights. As OpenFAST maps AeroDyn's tower line load onto
 the structure, the load is linear in between: node k of the tower takes
 F_k = w_k p(z_k) with p interpolated linearly between the stations
-(`aero.sampled_transfer`, w_k the node quadrature weight). Stations are the
+(`effects.aero.sampled_transfer`, w_k the node quadrature weight). Stations are the
 table's elevations on the tower plus its base and top where the table does
 not reach them (diameter and Cd are held constant beyond the table ends, so
 the whole tower is loaded); diameter and Cd are the table's at the
