@@ -88,6 +88,43 @@ def test_deck_cache_keeps_at_most_max_entries(tmp_path, monkeypatch):
     assert 2 <= len(list((tmp_path / "cache" / "decks").glob("*.pickle"))) <= 4
 
 
+def test_deck_cache_is_skipped_while_its_code_changed_after_import(tmp_path, monkeypatch):
+    """A reader module whose source is newer than the process's import of
+    the cache (an upgrade or an edit while a search runs): its values are
+    neither taken from the cache nor written to it, so no entry pickled by
+    the older code is stamped with the newer source."""
+    import importlib
+    import time
+
+    from modesel.turbine import deck_cache
+    monkeypatch.setenv("MODESEL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    source = tmp_path / "modesel_test_reader.py"
+    source.write_text("FORMAT = 1\n")
+    importlib.import_module("modesel_test_reader")
+    past = deck_cache._IMPORTED_NS - 10**9
+    os.utime(source, ns=(past, past))                     # installed before this process started
+    deck = tmp_path / "deck.dat"
+    deck.write_text("value\n")
+    reads = []
+
+    def reader(p):
+        reads.append(p)
+        return Path(p).read_text()
+    for _ in range(2):
+        assert deck_cache.cached(reader, deck, code=("modesel_test_reader",)) == "value\n"
+    entries = list((tmp_path / "cache" / "decks").glob("*.pickle"))
+    assert len(reads) == 1 and len(entries) == 1
+    written = entries[0].stat().st_mtime_ns
+    later = time.time_ns() + 10**9
+    os.utime(source, ns=(later, later))                   # the source changes under the running process
+    for _ in range(2):
+        assert deck_cache.cached(reader, deck, code=("modesel_test_reader",)) == "value\n"
+    assert len(reads) == 3                                # read each time, the entry not taken
+    assert [e.stat().st_mtime_ns for e in entries] == [written]     # nor rewritten
+    assert len(list((tmp_path / "cache" / "decks").glob("*"))) == 1
+
+
 STEADY_08 = ROOT / "studies/data/openfast/steady_08/steady_08.fst"
 
 

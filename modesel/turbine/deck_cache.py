@@ -19,6 +19,11 @@ as every file it came from is unchanged.
 - A cache that cannot be written or read (read-only home, a damaged entry)
   is skipped silently: the deck is read as without it. Errors of the reader
   (ModeselError for a bad deck) are never cached.
+- A code module whose source changed after this module was imported (an
+  upgrade or an edit while the process runs) may not be the code this
+  process runs: while that is so, the cache is neither read nor written (a
+  value pickled by the older code, stamped with the newer source, would be
+  taken by every later process).
 - Every call returns a fresh copy (unpickled), so callers may change it.
 - At most `MAX_ENTRIES` entries: writing one more removes the older half.
 """
@@ -30,10 +35,13 @@ import os
 import pickle
 import sys
 import tempfile
+import time
 from importlib import metadata
 from pathlib import Path
 
 FORMAT = 1
+#: when this module was imported [ns since the epoch], with the readers' modules
+_IMPORTED_NS = time.time_ns()
 OFF = ("off", "0", "no", "false")
 #: most entries kept; beyond it the older half is removed (decks in temporary
 #: folders, e.g. of tests, would otherwise pile up)
@@ -65,13 +73,19 @@ def _openfast_io_version() -> str:
         return "?"
 
 
-def _manifest(files, code) -> list:
+def _manifest(files, code) -> list | None:
+    """Stamps of the value's files, of the code modules' sources and the
+    openfast_io version; None when a code module's source changed after
+    this process loaded it (module doc)."""
     stamps = [_stamp(f) for f in files]
     for name in code:
         module = sys.modules.get(name)
         origin = getattr(module, "__file__", None)
         if origin:
-            stamps.append(_stamp(origin))
+            stamp = _stamp(origin)
+            if stamp[1] > _IMPORTED_NS:
+                return None
+            stamps.append(stamp)
     return stamps + [("openfast_io", _openfast_io_version())]
 
 
@@ -87,6 +101,8 @@ def cached(reader, path, *args, files=None, code=None):
         return reader(path, *args)
     key = repr((FORMAT, reader.__module__, reader.__qualname__, str(Path(path).resolve()), args))
     entry = folder / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".pickle")
+    if _manifest([], code) is None:
+        return reader(path, *args)
     try:
         with open(entry, "rb") as stream:
             stored_key, sources, manifest, value = pickle.load(stream)
@@ -99,6 +115,8 @@ def cached(reader, path, *args, files=None, code=None):
     try:
         sources = [str(s) for s in (files(value) if files else [path])]
         manifest = _manifest(sources, code)
+        if manifest is None:
+            return value
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("wb", dir=folder, delete=False, suffix=".tmp") as stream:
             pickle.dump((key, sources, manifest, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
