@@ -60,11 +60,16 @@ class Packed:
             raise ValueError(f"{name} takes its loads at load points, not at its nodes")
         return self.node_start[name]
 
+    def _rows_used(self) -> int:
+        """Node rows of every flexible body, then the rows of the load points."""
+        return (sum(c for _, c in self.node_start.values())
+                + sum(len(p.weights) for p in self.load_points.values()))
+
     @property
     def n_rows(self) -> int:
-        """Rows of the node loads (fnodes): every node, then the load points."""
-        return max(sum(c for _, c in self.node_start.values())
-                   + sum(len(p.weights) for p in self.load_points.values()), 1)
+        """Rows of the node loads (fnodes): every node, then the load points
+        (at least one row)."""
+        return max(self._rows_used(), 1)
 
 
 def _joint_columns(joint, n):
@@ -241,7 +246,7 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
     bi, ipool, fpool = packed.data[0].copy(), packed.data[2].copy(), packed.data[11]
     blocks = [fpool]
     size = fpool.size
-    row = packed.n_rows if packed.load_points else sum(c for _, c in packed.node_start.values())
+    row = packed._rows_used()               # the next load point's row
     points = dict(packed.load_points)
     for name, T in transfers.items():
         k, f = bodies[name]

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from modesel.aero.tower_drag import drag_forces
-from modesel.model.effects.aero import aerodyn_deck, sampled_transfer, wind_of
+from modesel.model.effects.aero import aerodyn_deck, row_bands, sampled_transfer, wind_of
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
 
@@ -63,7 +63,8 @@ class TowerDragLoads(Effect):
         table's elevations on the tower, plus its base and top where the
         table does not reach them; heights at rest from the nodes' (the
         undeflected tower is straight)."""
-        z_rest = self.nodes.kinematics(built.frames(*_rest(built)), *_rest(built))[0][:, 2]
+        q, qd = _rest(built)
+        z_rest = self.nodes.kinematics(built.frames(q, qd), q, qd)[0][:, 2]
         local = self.nodes.s0[:, 2]
         slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
         tower = built.model.turbine.tower
@@ -89,7 +90,6 @@ class TowerDragLoads(Effect):
         """Pack this effect for the compiled loop (`effects.compiled._tower_drag`):
         the station loads carried to the tower's load points (weights w_a)
         where `packed` has them, else to its nodes (the transfer's bands)."""
-        from modesel.model.effects.aero import row_bands
         from modesel.model.effects.packing import TOWER_DRAG, point_set_ints
         lp = packed.load_points.get("tower")
         if lp is not None:
