@@ -3,7 +3,9 @@ studies/data/openfast/steady_08/steady_08.fst (NREL 5-MW, 8 m/s, AeroDyn
 BEM, ServoDyn VSContrl 1, 15 DOFs) for 20 s and 100 s.
 
 Both run as separate processes one after the other (modesel first once,
-untimed, so numba's on-disk cache is warm). OpenFAST runs on a copy of the
+untimed, so numba's on-disk cache and Python's bytecode of modesel are warm:
+PYTHONDONTWRITEBYTECODE, set on some machines, is dropped for modesel's runs;
+without bytecode every run compiles modesel's sources again, about 0.3 s). OpenFAST runs on a copy of the
 case folder with TMax replaced; its executable is $OPENFAST or
 ../shared/tools/openfast/openfast relative to the repository. Without it,
 the OpenFAST wall time of the bundled log (`steady_08.log`, 100 s) is
@@ -39,6 +41,7 @@ def openfast_exe():
 
 def run_modesel(tmax, out):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)     # warm: Python's bytecode of modesel written once, then read
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(FST), "--tmax", str(tmax),
                            "--out", str(out)], env=env, capture_output=True, text=True)

@@ -17,10 +17,11 @@ DECAY = ROOT / "studies/data/openfast_free_decay/tower_fa_ss_shaft/Spar_ED_ForED
 #: packages `modesel simulate` must not import (search, plotting, symbolic, the
 #: candidate-family command; scipy's integrators and splines, 0.17 s together,
 #: which a compiled run of the deck's shapes does not use; pandas, 0.17 s: the
-#: CSV is written from the result's columns)
+#: CSV is written from the result's columns; the package scipy.linalg, 0.15 s:
+#: numba's BLAS module is loaded alone, `integrate.load_scipy_blas`)
 NOT_ON_SIMULATE_PATH = ("optuna", "matplotlib", "sympy", "pandas", "modesel.commands.candidates",
                         "modesel.commands.run", "modesel.multibody.symbolic",
-                        "scipy.integrate", "scipy.interpolate")
+                        "scipy.integrate", "scipy.interpolate", "scipy.linalg")
 
 
 def test_simulate_imports_no_optuna_matplotlib_or_sympy(tmp_path):
@@ -38,6 +39,28 @@ def test_simulate_imports_no_optuna_matplotlib_or_sympy(tmp_path):
     rc, imported = json.loads(done.stdout.strip().splitlines()[-1])
     assert rc == 0 and out.is_file()
     assert imported == []
+
+
+def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
+    """`load_scipy_blas` loads scipy's BLAS module without the package
+    scipy.linalg; numba's matrix product then runs on it (against numpy's),
+    and scipy.linalg imported afterwards works and hands out the same module."""
+    code = (
+        "import sys, numpy as np, numba\n"
+        "from modesel.multibody.integrate import load_scipy_blas\n"
+        "blas = load_scipy_blas()\n"
+        "alone = 'scipy.linalg' not in sys.modules\n"
+        "dot = numba.njit(lambda a, b: np.dot(a, b))\n"
+        "a, b = np.random.default_rng(1).random((2, 40, 40))\n"
+        "same = bool(np.allclose(dot(a, b), a @ b, rtol=1e-13, atol=0))\n"
+        "import scipy.linalg\n"
+        "from scipy.linalg import cython_blas\n"
+        "lam = scipy.linalg.eigh(a @ a.T + np.eye(40), eigvals_only=True)\n"
+        "print(alone, same, cython_blas is blas, bool(np.allclose(lam, np.linalg.eigvalsh(a @ a.T + np.eye(40)))))\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True"] * 4
 
 
 @pytest.mark.parametrize("argv, command", [

@@ -27,7 +27,6 @@ piecewise linear, phi' piecewise constant and phi'' = 0.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import eigh
 
 GAUSS_XI, GAUSS_W = np.polynomial.legendre.leggauss(4)
 GAUSS_XI = 0.5 * (GAUSS_XI + 1.0)     # on [0, 1]
@@ -113,6 +112,7 @@ def torsion_matrices(nodes, span, polar_inertia, gj, *, tip_inertia=0.0):
 def lowest_modes(k, m, count):
     """(omega [rad/s] (count,), eigenvectors (n, count)) of K v = omega^2 M v.
     Raises ValueError when a mode is unstable (omega^2 <= 0, e.g. buckling)."""
+    from scipy.linalg import eigh   # here: scipy.linalg costs a simulation 0.15 s of start-up
     lam, vec = eigh(k, m, subset_by_index=[0, count - 1])
     if lam[0] <= 0.0:
         raise ValueError(f"the beam is unstable (lowest eigenvalue {lam[0]:.3g} <= 0)")

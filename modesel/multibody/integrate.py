@@ -163,6 +163,44 @@ def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None, rtol=No
     return explicit_method(rtol, compiled, kinked), ratio
 
 
+def load_scipy_blas():
+    """scipy's BLAS module `scipy.linalg.cython_blas`, whose function pointers
+    numba's matrix products call (numba imports it when it builds its target
+    context, `numba.np.linalg.ensure_blas`). Where it is not loaded yet, it is
+    loaded from its extension file alone and entered in `sys.modules` under
+    its own name: the package `scipy.linalg` around it would cost a
+    simulation about 0.15 s of start-up (its array-API layer clones numpy's
+    namespace, which imports numpy.f2py) and the engine needs none of it.
+    `import scipy.linalg` later still works; `import scipy.linalg.cython_blas`
+    and `from scipy.linalg import cython_blas` (numba's and scipy's Cython
+    modules import it so) give this module, only the attribute
+    `scipy.linalg.cython_blas` stays unset. Where the file cannot be found or
+    loaded, the package is imported as usual."""
+    import importlib.machinery
+    import importlib.util
+    import os
+    import sys
+
+    name = "scipy.linalg.cython_blas"
+    if name in sys.modules:
+        return sys.modules[name]
+    try:
+        import scipy
+
+        folder = os.path.join(os.path.dirname(scipy.__file__), "linalg")
+        path = next(p for suffix in importlib.machinery.EXTENSION_SUFFIXES
+                    if os.path.isfile(p := os.path.join(folder, "cython_blas" + suffix)))
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        return module
+    except Exception:
+        sys.modules.pop(name, None)
+        import scipy.linalg.cython_blas
+        return sys.modules[name]
+
+
 @functools.lru_cache(maxsize=1)
 def _blas_thread_controls():
     """(get, set) ctypes functions of each OpenBLAS loaded in this process
@@ -200,8 +238,7 @@ class single_thread_blas:
     """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
 
     def __enter__(self):
-        # load scipy's BLAS (the one numba's matrix products call) before looking for it
-        import scipy.linalg.cython_blas  # noqa: F401
+        load_scipy_blas()     # the BLAS numba's matrix products call, loaded before looking for it
 
         self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
         for _, set_ in self._saved:

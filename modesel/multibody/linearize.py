@@ -32,10 +32,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 #: relative distance below which eigenvalues count as repeated
 CLUSTER_TOL = 1e-7
+#: `simple_participation`: an eigenvalue is simple when every other lies
+#: farther than SIMPLE_SEPARATION times the largest |eigenvalue| and the two
+#: smallest singular values of A - lambda I differ by more than SIMPLE_GAP
+SIMPLE_SEPARATION = 1e-6
+SIMPLE_GAP = 1e6
 #: a mode sharing its dominant coordinate is named after its second one when
 #: that participates at least this fraction of the dominant one
 SHARED = 0.5
@@ -104,7 +108,7 @@ def state_matrix(lin: LinearModel) -> np.ndarray:
 
 def eigenvalues(lin: LinearModel) -> np.ndarray:
     """Eigenvalues [1/s] of the state matrix (no eigenvectors)."""
-    return scipy.linalg.eigvals(state_matrix(lin))
+    return np.linalg.eigvals(state_matrix(lin))
 
 
 def representatives(lam: np.ndarray) -> list:
@@ -143,6 +147,7 @@ def eigen(lin: LinearModel):
     """(eigenvalues (2n,), right eigenvectors (2n, 2n), participation (2n, n)
     of each coordinate in each eigenvalue, rows summing to 1, module doc)."""
     n = len(lin.names)
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     lam, left, right = scipy.linalg.eig(state_matrix(lin), left=True, right=True)
     return lam, right, participation(lam, left, right, n)[0]
 
@@ -162,6 +167,24 @@ def participation(lam, left, right, n: int):
         per_mode[idx] = _coordinates(np.abs(p), n).T
         per_cluster[c] = _coordinates(np.abs(p.sum(axis=1))[:, None], n)[:, 0]
     return per_mode, cluster, per_cluster
+
+
+def simple_participation(A: np.ndarray, lam: np.ndarray, i: int, n: int):
+    """Participation (n,) of the n coordinates in eigenvalue lam[i] of the
+    state matrix A (2n x 2n; lam: all its eigenvalues) when that eigenvalue
+    is simple, else None; with numpy alone, as `eigen` gives it with scipy's
+    eigenvectors. v and w, the right and left null vectors of A - lam[i] I,
+    are the last right and left singular vectors of one SVD, and p_i =
+    |w_i v_i| / |w^H v| (module doc). Simple: every other eigenvalue lies
+    farther than SIMPLE_SEPARATION times the largest |eigenvalue| (a repeated
+    or defective one, e.g. a free rotor's double zero, is not) and the two
+    smallest singular values differ by more than SIMPLE_GAP."""
+    if np.any(np.abs(np.delete(lam, i) - lam[i]) <= SIMPLE_SEPARATION * float(np.abs(lam).max())):
+        return None
+    u, sigma, vh = np.linalg.svd(A - lam[i] * np.eye(len(A)))
+    if not sigma[-2] > SIMPLE_GAP * sigma[-1]:
+        return None
+    return _coordinates(np.abs(u[:, -1] * vh[-1])[:, None], n)[:, 0]
 
 
 def _coordinates(p: np.ndarray, n: int) -> np.ndarray:
@@ -198,6 +221,7 @@ def state_modes(A: np.ndarray, names, include_rigid: bool = False, tol_hz: float
     """`modes` of a first-order state matrix A (2n x 2n, states (q, qd)) whose
     n coordinates are `names`: e.g. OpenFAST's linearisation."""
     n = len(names)
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     lam, left, right = scipy.linalg.eig(A, left=True, right=True)
     per_mode, cluster, per_cluster = participation(lam, left, right, n)
     kept = [i for i in representatives(lam) if include_rigid or frequency_damping(lam[i])[0] >= tol_hz]

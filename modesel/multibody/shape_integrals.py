@@ -44,7 +44,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from modesel.candidates.base import ShapeSet
 from modesel.errors import ModeselError
@@ -323,6 +322,7 @@ def shape_integrals(beam, shapes, *, direction=None, top_mass: float = 0.0, grav
         total += geometric["gravity_top_mass"] + geometric["gravity_self_weight"]
     elif beam.name == "blade":
         total += rotor_speed ** 2 * (geometric["centrifugal_per_omega2"] + spin)
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     eig = scipy.linalg.eigh(total, mass, eigvals_only=True)
     frequencies = np.sign(eig) * np.sqrt(np.abs(eig)) / (2.0 * np.pi)
 
@@ -358,6 +358,8 @@ def _in_raw_basis(result: ShapeIntegrals, transform: np.ndarray) -> ShapeIntegra
     shapes phi = R^T psi (R = T^-1): per-mode arrays X -> R^T X, matrices
     X -> R^T X R (frequencies are basis-independent)."""
     from dataclasses import replace
+
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     R = scipy.linalg.solve_triangular(transform, np.eye(transform.shape[0]))
 
     def linear(x):
@@ -394,6 +396,7 @@ def orthonormalising_transform(weighted) -> np.ndarray:
     n = weighted.shape[0]
     r = np.linalg.qr(weighted.T, mode="r")
     r = r * np.sign(np.diag(r))[:, None]
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     return scipy.linalg.solve_triangular(r, np.eye(n))
 
 
@@ -478,6 +481,7 @@ def _modal_damping(stiffness, mass, ratios) -> np.ndarray:
         return np.zeros((n, n))
     if np.any(ratios < 0):
         raise ModeselError("damping ratios must be >= 0", field="damping_ratio")
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
     lam, vec = scipy.linalg.eigh(stiffness, mass)
     omega = np.sqrt(np.clip(lam, 0.0, None))
     zeta = np.empty(n)

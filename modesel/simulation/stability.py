@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from modesel.errors import PhysicallyUnstable
-from modesel.multibody.linearize import LinearModel, eigen, eigenvalues
+from modesel.multibody.linearize import LinearModel, eigen, eigenvalues, simple_participation, state_matrix
 from modesel.vocabulary import RIGID_BODY_DOFS, coordinate_field
 
 #: a real eigenvalue below this fraction of the largest |eigenvalue| (plus an
@@ -26,6 +26,19 @@ def _unstable(lam: np.ndarray) -> np.ndarray:
     return np.flatnonzero((lam.real > noise) & (np.abs(lam.imag) <= noise))
 
 
+def _dominant_coordinates(A: np.ndarray, lam: np.ndarray, which, n: int):
+    """{eigenvalue index: its dominant coordinate} for the eigenvalues `which`
+    of the state matrix A when each is simple (`linearize.simple_participation`:
+    numpy only, so scipy.linalg stays off a simulation's start-up), else None."""
+    out = {}
+    for i in which:
+        p = simple_participation(A, lam, int(i), n)
+        if p is None:
+            return None
+        out[int(i)] = int(np.argmax(p))
+    return out
+
+
 def check_static_stability(lin: LinearModel, *, file=None, fields=None, lam=None) -> None:
     """Raise `PhysicallyUnstable` when the linearised model has a statically
     unstable elastic mode: a real positive eigenvalue lambda [1/s] of the
@@ -37,12 +50,18 @@ def check_static_stability(lin: LinearModel, *, file=None, fields=None, lam=None
     RIGID_BODY_DOFS) are not flagged, nor real eigenvalues within round-off
     of zero (STABILITY_NOISE). fields: {coordinate: what it is} for the
     message; lam: the state matrix's eigenvalues if known."""
-    if len(lin.names) == 0 or not len(_unstable(eigenvalues(lin) if lam is None else lam)):
+    if len(lin.names) == 0:
         return
-    lam, _, participation = eigen(lin)
+    lam = eigenvalues(lin) if lam is None else lam
+    if not len(_unstable(lam)):
+        return
+    dominant = _dominant_coordinates(state_matrix(lin), lam, _unstable(lam), len(lin.names))
+    if dominant is None:
+        lam, _, participation = eigen(lin)
+        dominant = {i: int(np.argmax(participation[i])) for i in _unstable(lam)}
     worst = None
     for i in _unstable(lam):
-        label = lin.names[int(np.argmax(participation[i]))]
+        label = lin.names[dominant[i]]
         if label in RIGID_BODY_DOFS:
             continue
         if worst is None or lam[i].real > worst[1]:

@@ -27,6 +27,7 @@ from modesel.candidates.base import mode_shapes
 from modesel.candidates.context import field_context
 from modesel.errors import PhysicallyUnstable, SimulationDiverged
 from modesel.simulation import api
+from modesel.simulation.stability import STABILITY_NOISE
 from modesel.multibody import linearize as lin
 from modesel.multibody.bodies import FlexibleBody
 from modesel.multibody.shape_integrals import shape_integrals
@@ -139,3 +140,39 @@ def test_stable_scenes_are_not_flagged(name):
     b = api.build(sc)
     model = lin.linearize(b.M_F, np.zeros_like(b.q0), b.qd0, b.model.system.free)
     api.check_static_stability(model)
+
+
+@pytest.mark.parametrize("name, factor", [("paper_2dof_tower_shaft", 1.1), ("turbine_wind_08", None),
+                                          ("turbine_wind_15", None)])
+def test_simple_participation_equals_eigen_s(m_crit, name, factor):
+    """The stability check takes the participation in a simple real
+    eigenvalue from one SVD of A - lambda I (numpy only,
+    `linearize.simple_participation`); `linearize.eigen` (scipy's left and
+    right eigenvectors) gives the same participation for every real
+    eigenvalue beyond round-off: the buckled tower's, the rotor speed's under
+    the generator law (8 m/s) and under pitch control (15 m/s). A free
+    coordinate (no stiffness, no damping: a defective double zero) is not
+    simple, and the check falls back to `eigen`."""
+    sc = with_nacelle_mass(factor * m_crit) if factor else scene(name)
+    b = api.build(sc)
+    model = lin.linearize(b.M_F, np.zeros_like(b.q0), b.qd0, b.model.system.free)
+    lam, _, participation = lin.eigen(model)
+    noise = STABILITY_NOISE * np.abs(lam).max() + 1e-6              # below it the check asks nothing
+    real = np.flatnonzero((np.abs(lam.imag) <= noise) & (np.abs(lam.real) > noise))
+    assert len(real) >= 1
+    A, n = lin.state_matrix(model), len(model.names)
+    for i in real:
+        assert lin.simple_participation(A, lam, int(i), n) == pytest.approx(participation[i], abs=1e-9)
+    if factor:
+        assert model.names[int(np.argmax(participation[int(np.argmax(lam.real))]))].startswith("TFA")
+    free = lin.LinearModel(["GeAz"] + model.names, *(scipy.linalg.block_diag(0.0 if k else 1.0, X)
+                                                     for k, X in enumerate((model.M, model.C, model.K))))
+    lam_free = lin.eigenvalues(free)
+    zero = np.flatnonzero(np.abs(lam_free) < 1e-9 * np.abs(lam_free).max())
+    assert len(zero) >= 2                                       # its double zero (and GeAz's, if free)
+    assert all(lin.simple_participation(lin.state_matrix(free), lam_free, int(i), n + 1) is None for i in zero)
+    if factor:                                                  # the fallback to eigen still names the tower
+        with pytest.raises(PhysicallyUnstable, match="TFA"):
+            api.check_static_stability(free)
+    else:
+        api.check_static_stability(free)

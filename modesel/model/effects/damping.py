@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-import scipy.linalg
 
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.bodies import FlexibleBody
@@ -81,6 +80,8 @@ def fundamental(body, sl) -> float:
     alone (beam only, undeformed): K phi = lambda^2 M phi, M the field's own
     generalised mass (untwisted shapes, as the modal damping's field
     frequencies; `FlexibleBody.field_mass`)."""
+    import scipy.linalg   # here: scipy.linalg costs a simulation 0.15 s of start-up
+
     if body.field_mass is not None:
         M = body.field_mass[np.ix_(sl, sl)]
         K = body.stiffness[np.ix_(sl, sl)]
