@@ -63,6 +63,33 @@ def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
     assert done.stdout.split() == ["True"] * 4
 
 
+def test_collector_paused_while_importing_then_restored():
+    """`modesel simulate` imports with the garbage collector off, then
+    freezes what it made and restores the collector as it was, also on an
+    error; cyclic garbage made after it is collected again."""
+    import gc
+
+    from modesel.commands._common import collector_paused
+    try:
+        for enabled in (True, False):
+            (gc.enable if enabled else gc.disable)()
+            with collector_paused():
+                assert not gc.isenabled()
+            assert gc.isenabled() is enabled and gc.get_freeze_count() > 0
+        gc.enable()
+        with pytest.raises(ValueError), collector_paused():
+            raise ValueError("a bad input while reading")
+        assert gc.isenabled()
+        gc.collect()
+        cycle = [[]]
+        cycle[0].append(cycle)
+        del cycle
+        assert gc.collect() >= 2                # made after: collected
+    finally:
+        gc.unfreeze()
+        gc.enable()
+
+
 @pytest.mark.parametrize("argv, command", [
     (["simulate", "x.fst"], "simulate"), (["--debug", "simulate", "x"], "simulate"),
     (["--help"], None), ([], None), (["simulat", "x"], None), (["--", "simulate"], None)])

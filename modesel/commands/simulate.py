@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import sys
 
-from modesel.commands._common import atomic_write_text, load_modeset, positive_float
+from modesel.commands._common import atomic_write_text, collector_paused, load_modeset, positive_float
 
 
 def register(sub):
@@ -27,11 +27,12 @@ def register(sub):
 
 
 def run(args) -> int:
-    from modesel.files import columns_csv_text
-    from modesel.model.effects import effects_in_scene
-    from modesel.simulation.api import load_scene, simulate
-    from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
-    scene = load_scene(args.scene)
+    with collector_paused():
+        from modesel.files import columns_csv_text
+        from modesel.model.effects import effects_in_scene
+        from modesel.simulation.api import load_scene, simulate
+        from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
+        scene = load_scene(args.scene)
     line = SimulationProgress(f"{scene.name}: ")
     try:
         with CompileProgress():
