@@ -1,7 +1,8 @@
 """Where one `modesel simulate` spends its time, phase by phase, in a fresh
 process (numba's cache warm): imports, loading the scene, each step of
 `simulate` (build, linearisation, eigenvalues, stability check, integration,
-channels) and writing the CSV as the command does.
+channels) and writing the CSV as the command does (with Python's garbage
+collector paused until the scene is read, as the command does).
 
 Run: python3 benchmarks/simulate_phases.py [--tmax 20] [SCENE]
      (default SCENE: the OpenFAST case steady_08 with BEM)
@@ -13,6 +14,9 @@ loading the compiled functions from its cache on their first call).
 import time
 
 T0 = time.perf_counter()
+import gc  # noqa: E402
+
+gc.disable()          # as `modesel simulate` (commands._common.collector_paused) until the scene is read
 import argparse  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -50,6 +54,8 @@ def main() -> None:
         setattr(transient, name, timed(name))
     t2 = time.perf_counter()
     scene = load_scene(a.scene)
+    gc.freeze()
+    gc.enable()
     t3 = time.perf_counter()
     result = simulate(scene, tmax=a.tmax)
     t4 = time.perf_counter()
