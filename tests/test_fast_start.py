@@ -64,27 +64,31 @@ def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
 
 
 def test_collector_paused_while_importing_then_restored():
-    """`modesel simulate` imports with the garbage collector off, then
-    freezes what it made and restores the collector as it was, also on an
-    error; cyclic garbage made after it is collected again."""
+    """`modesel simulate` imports with the garbage collector off; `started()`
+    freezes what that made and turns the collector on; on leaving (also on an
+    error) nothing stays frozen and the collector is as it was."""
     import gc
 
     from modesel.commands._common import collector_paused
     try:
         for enabled in (True, False):
             (gc.enable if enabled else gc.disable)()
-            with collector_paused():
+            with collector_paused() as started:
                 assert not gc.isenabled()
-            assert gc.isenabled() is enabled and gc.get_freeze_count() > 0
+                started()
+                assert gc.isenabled() is enabled and gc.get_freeze_count() > 0
+            assert gc.isenabled() is enabled and gc.get_freeze_count() == 0
         gc.enable()
         with pytest.raises(ValueError), collector_paused():
             raise ValueError("a bad input while reading")
-        assert gc.isenabled()
-        gc.collect()
-        cycle = [[]]
-        cycle[0].append(cycle)
-        del cycle
-        assert gc.collect() >= 2                # made after: collected
+        assert gc.isenabled() and gc.get_freeze_count() == 0
+        with collector_paused() as started:
+            started()
+            gc.collect()
+            cycle = [[]]
+            cycle[0].append(cycle)
+            del cycle
+            assert gc.collect() >= 2            # made after started(): collected
     finally:
         gc.unfreeze()
         gc.enable()

@@ -269,6 +269,27 @@ def test_stop_when_met_stops_after_keep_searching_trials(tmp_path):
     assert len(after) == 3 and trials[-1] in after and len(distinct(trials)) < 60
 
 
+def test_search_leaves_the_garbage_collector_as_it_found_it(tmp_path):
+    """run_search freezes what its warm-up loaded while it searches (its
+    collections then walk only the trials' objects: every simulation after
+    the warm-up sees frozen objects) and unfreezes it after; a caller that
+    froze objects itself (the commands) keeps them frozen."""
+    import gc
+    study = load(make_study(tmp_path, n_trials=4))
+    try:
+        gc.unfreeze()
+        seen = []
+        engine = Engine(fake_load_scene, lambda *a, **k: seen.append(gc.get_freeze_count())
+                        or fake_simulate(*a, **k))
+        run_search(study, out_dir=tmp_path / "a", engine=engine, progress=False)
+        assert min(seen[1:]) > 0 and gc.get_freeze_count() == 0 and gc.isenabled()
+        gc.freeze()
+        run_search(study, out_dir=tmp_path / "b", engine=FAKE_ENGINE, progress=False)
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+
+
 def test_failing_trial_is_recorded_and_the_study_continues(tmp_path):
     study = load(make_study(tmp_path, tower_families='["test_exact", "test_unstable"]', n_trials=15))
     outcome = run_search(study, out_dir=tmp_path / "out", engine=FAKE_ENGINE, progress=False)

@@ -12,18 +12,25 @@ from modesel.files import atomic_write_text  # noqa: F401  (shared by the comman
 @contextlib.contextmanager
 def collector_paused():
     """Python's cyclic garbage collector off while a command imports what it
-    needs and reads its inputs, then the objects made so far (modules,
-    functions, numba's dispatchers, the parsed decks: kept to the end) frozen
-    out of its sight (`gc.freeze`) and collection resumed. The imports of
-    `modesel simulate` allocate about 90,000 such objects, and the collector,
-    triggered every 700 allocations, walked them 119 times: about 65 ms of a
-    1.1-s command. Imports and parsing make little garbage."""
+    needs and reads its inputs; the `started()` this yields then freezes the
+    objects made so far (modules, functions, numba's dispatchers, the parsed
+    decks: kept to the end) out of the collector's sight (`gc.freeze`) and
+    turns it back on. On leaving, they are unfrozen and the collector is as
+    it was. The imports of `modesel simulate` allocate about 90,000 such
+    objects, and the collector, triggered every 700 allocations, walked them
+    119 times: about 65 ms of a 1.1-s command. Imports and parsing make
+    little garbage."""
     was_enabled = gc.isenabled()
     gc.disable()
-    try:
-        yield
-    finally:
+
+    def started():
         gc.freeze()
+        if was_enabled:
+            gc.enable()
+    try:
+        yield started
+    finally:
+        gc.unfreeze()
         if was_enabled:
             gc.enable()
 

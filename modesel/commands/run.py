@@ -22,7 +22,7 @@ import argparse
 import os
 from pathlib import Path
 
-from modesel.commands._common import add_search_options, say
+from modesel.commands._common import add_search_options, collector_paused, say
 from modesel.errors import Interrupted, ModeselError
 
 EPILOG = ("The study file (every table and key, type, default and unit, the metrics with "
@@ -84,11 +84,17 @@ def trial_counts(outcome, ranked) -> str:
 
 
 def run(args, engine=None) -> int:
+    with collector_paused() as started:
+        return _run(args, engine, started)
+
+
+def _run(args, engine, started) -> int:
     from modesel.study.results import refresh, write_run_info
     from modesel.study.search import default_storage, mask_url, run_search
     from modesel.study.spec import load_study
 
     study = load_study(args.study)
+    started()
     out = prepare_out_dir(args.out)
     storage = args.storage or study.run.storage or default_storage(out)
     info = {"study_file": str(study.path), "study_toml": study.text, "study_name": study.name,

@@ -27,12 +27,17 @@ def register(sub):
 
 
 def run(args) -> int:
-    with collector_paused():
-        from modesel.files import columns_csv_text
-        from modesel.model.effects import effects_in_scene
-        from modesel.simulation.api import load_scene, simulate
-        from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
-        scene = load_scene(args.scene)
+    with collector_paused() as started:
+        return _run(args, started)
+
+
+def _run(args, started) -> int:
+    from modesel.files import columns_csv_text
+    from modesel.model.effects import effects_in_scene
+    from modesel.simulation.api import load_scene, simulate
+    from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
+    scene = load_scene(args.scene)
+    started()
     line = SimulationProgress(f"{scene.name}: ")
     try:
         with CompileProgress():

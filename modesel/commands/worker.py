@@ -14,7 +14,7 @@ import socket
 import zlib
 from pathlib import Path
 
-from modesel.commands._common import add_search_options, say
+from modesel.commands._common import add_search_options, collector_paused, say
 
 
 def register(subparsers):
@@ -32,10 +32,16 @@ def register(subparsers):
 
 
 def run(args, engine=None) -> int:
+    with collector_paused() as started:
+        return _run(args, engine, started)
+
+
+def _run(args, engine, started) -> int:
     from modesel.study.search import mask_url, run_search
     from modesel.study.spec import load_study
 
     study = load_study(args.study)
+    started()
     cache = Path(args.cache) if args.cache else study.path.parent / ".modesel" / study.name
     # salt the seed with host and process, so workers started together differ
     salt = zlib.crc32(f"{socket.gethostname()}:{os.getpid()}".encode())

@@ -15,6 +15,7 @@ dies (`die_with_parent`), and every trial names its process (user attribute
 """
 from __future__ import annotations
 
+import gc
 import math
 import os
 import signal
@@ -260,19 +261,31 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
     n_jobs = min(n_jobs, n_trials)
     shares = [n_trials // n_jobs + (1 if i < n_trials % n_jobs else 0) for i in range(n_jobs)]
     criterion = study.criterion()
-    workers = None
-    if n_jobs > 1 and _can_fork():
-        # persistent workers forked from this process after the warm-up: each
-        # starts with the compiled engine, the decks and the references loaded
-        # (a spawned worker paid seconds of imports and numba cache loading);
-        # forked before the progress bar starts its thread
-        with CompileProgress(quiet=progress is False):
-            objective.warm_up()
-        seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
-        workers = _fork_workers(objective, storage, study, seeds, shares, timeout, callbacks)
-    bar = Progress(n_trials, study.name, progress)
-    poll = (lambda: bar.set(*counts(opt, since, criterion))) if bar.bar is not None else (lambda: None)
+    workers, bar = None, None
+    forking = n_jobs > 1 and _can_fork()
+    freezing = forking or n_jobs == 1
+    caller_froze = gc.get_freeze_count() > 0
     try:
+        if freezing:
+            with CompileProgress(quiet=progress is False):
+                objective.warm_up()
+            # what the warm-up loaded (modules, compiled engine, decks,
+            # references) stays to the end: frozen out of the garbage
+            # collector's sight while the search runs, so that its collections
+            # walk only the trials' objects and, in forked workers, never write
+            # to the pages they share with this process (gc.freeze: "call
+            # gc.freeze() right before fork()"); unfrozen after it unless the
+            # caller had frozen objects itself (the commands: to their end)
+            gc.freeze()
+        if forking:
+            # persistent workers forked from this process after the warm-up:
+            # each starts with the compiled engine, the decks and the
+            # references loaded (a spawned worker paid seconds of imports and
+            # numba cache loading); forked before the progress bar starts its thread
+            seeds = [worker_seed(seed, n_before, i, salt) for i in range(n_jobs)]
+            workers = _fork_workers(objective, storage, study, seeds, shares, timeout, callbacks)
+        bar = Progress(n_trials, study.name, progress)
+        poll = (lambda: bar.set(*counts(opt, since, criterion))) if bar.bar is not None else (lambda: None)
         if workers is not None:
             results = _wait_workers(workers, poll)
         elif n_jobs == 1:
@@ -287,8 +300,12 @@ def run_search(study, *, out_dir=None, storage: str | None = None, n_trials: int
     except BaseException:
         if workers is not None:
             _stop_workers(workers)
-        bar.close(clear=True)
+        if bar is not None:
+            bar.close(clear=True)
         raise
+    finally:
+        if freezing and not caller_froze:
+            gc.unfreeze()
     for error, text in results:
         if error == _INTERNAL:      # a bug in a forked worker: its traceback, not a one-line error
             bar.close(clear=True)
