@@ -10,8 +10,10 @@ as every file it came from is unchanged.
 - Key: the reader's module and name, the resolved `path` and `args`.
   Validity: (resolved path, modification time in ns, size) of every file
   the value came from (`files(value)`, default: `path` alone), of the source
-  files of the modules in `code` (the reader's module by default) and the
-  openfast_io version. Any change reads the deck again.
+  files of the modules in `code` (the reader's module by default) and of
+  openfast_io's reader module (a new openfast_io installs a new one; asking
+  the installed distributions for its version scans them all, 7 ms). Any
+  change reads the deck again.
 - Place: `$MODESEL_CACHE_DIR/decks`; without it `$NUMBA_CACHE_DIR/modesel/decks`
   beside numba's own cache when that is set, else
   `$XDG_CACHE_HOME/modesel/decks` (default `~/.cache/modesel/decks`).
@@ -36,7 +38,6 @@ import pickle
 import sys
 import tempfile
 import time
-from importlib import metadata
 from pathlib import Path
 
 FORMAT = 1
@@ -66,16 +67,18 @@ def _stamp(path) -> tuple:
 
 
 @functools.lru_cache(maxsize=1)
-def _openfast_io_version() -> str:
+def _openfast_io_stamp() -> tuple:
+    import importlib.util
     try:
-        return metadata.version("openfast_io")
-    except metadata.PackageNotFoundError:
-        return "?"
+        spec = importlib.util.find_spec("openfast_io.FAST_reader")
+        return _stamp(spec.origin)
+    except (ImportError, AttributeError, TypeError, OSError):
+        return ("openfast_io", "?")
 
 
 def _manifest(files, code) -> list | None:
-    """Stamps of the value's files, of the code modules' sources and the
-    openfast_io version; None when a code module's source changed after
+    """Stamps of the value's files, of the code modules' sources and of
+    openfast_io's reader; None when a code module's source changed after
     this process loaded it (module doc)."""
     stamps = [_stamp(f) for f in files]
     for name in code:
@@ -86,7 +89,7 @@ def _manifest(files, code) -> list | None:
             if stamp[1] > _IMPORTED_NS:
                 return None
             stamps.append(stamp)
-    return stamps + [("openfast_io", _openfast_io_version())]
+    return stamps + [_openfast_io_stamp()]
 
 
 def cached(reader, path, *args, files=None, code=None):
