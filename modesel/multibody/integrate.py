@@ -184,6 +184,9 @@ def load_scipy_blas():
     name = "scipy.linalg.cython_blas"
     if name in sys.modules:
         return sys.modules[name]
+    if "scipy.linalg" in sys.modules:         # the package is there already: the usual import is cheap
+        import scipy.linalg.cython_blas
+        return sys.modules[name]
     try:
         import scipy
 
