@@ -76,11 +76,10 @@ def _openfast_io_stamp() -> tuple:
         return ("openfast_io", "?")
 
 
-def _manifest(files, code) -> list | None:
-    """Stamps of the value's files, of the code modules' sources and of
-    openfast_io's reader; None when a code module's source changed after
-    this process loaded it (module doc)."""
-    stamps = [_stamp(f) for f in files]
+def _code_stamps(code) -> list | None:
+    """Stamps of the code modules' sources; None when one changed after this
+    process loaded it (module doc)."""
+    stamps = []
     for name in code:
         module = sys.modules.get(name)
         origin = getattr(module, "__file__", None)
@@ -89,7 +88,13 @@ def _manifest(files, code) -> list | None:
             if stamp[1] > _IMPORTED_NS:
                 return None
             stamps.append(stamp)
-    return stamps + [_openfast_io_stamp()]
+    return stamps
+
+
+def _manifest(files, code_stamps) -> list:
+    """Stamps of the value's files, of the code modules' sources
+    (`_code_stamps`) and of openfast_io's reader."""
+    return [_stamp(f) for f in files] + code_stamps + [_openfast_io_stamp()]
 
 
 def cached(reader, path, *args, files=None, code=None):
@@ -104,12 +109,13 @@ def cached(reader, path, *args, files=None, code=None):
         return reader(path, *args)
     key = repr((FORMAT, reader.__module__, reader.__qualname__, str(Path(path).resolve()), args))
     entry = folder / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".pickle")
-    if _manifest([], code) is None:
+    code_stamps = _code_stamps(code)
+    if code_stamps is None:
         return reader(path, *args)
     try:
         with open(entry, "rb") as stream:
             stored_key, sources, manifest, value = pickle.load(stream)
-        if stored_key == key and manifest == _manifest(sources, code):
+        if stored_key == key and manifest == _manifest(sources, code_stamps):
             return value
     except Exception:   # absent, unreadable, damaged or stale: read the deck
         pass
@@ -117,9 +123,10 @@ def cached(reader, path, *args, files=None, code=None):
     stream = None
     try:
         sources = [str(s) for s in (files(value) if files else [path])]
-        manifest = _manifest(sources, code)
-        if manifest is None:
+        code_stamps = _code_stamps(code)        # again: the code may have changed while reading
+        if code_stamps is None:
             return value
+        manifest = _manifest(sources, code_stamps)
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("wb", dir=folder, delete=False, suffix=".tmp") as stream:
             pickle.dump((key, sources, manifest, value), stream, protocol=pickle.HIGHEST_PROTOCOL)
