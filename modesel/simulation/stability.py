@@ -53,14 +53,16 @@ def check_static_stability(lin: LinearModel, *, file=None, fields=None, lam=None
     if len(lin.names) == 0:
         return
     lam = eigenvalues(lin) if lam is None else lam
-    if not len(_unstable(lam)):
+    unstable = _unstable(lam)
+    if not len(unstable):
         return
-    dominant = _dominant_coordinates(state_matrix(lin), lam, _unstable(lam), len(lin.names))
+    dominant = _dominant_coordinates(state_matrix(lin), lam, unstable, len(lin.names))
     if dominant is None:
         lam, _, participation = eigen(lin)
-        dominant = {i: int(np.argmax(participation[i])) for i in _unstable(lam)}
+        unstable = _unstable(lam)
+        dominant = {i: int(np.argmax(participation[i])) for i in unstable}
     worst = None
-    for i in _unstable(lam):
+    for i in unstable:
         label = lin.names[dominant[i]]
         if label in RIGID_BODY_DOFS:
             continue
