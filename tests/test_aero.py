@@ -23,7 +23,7 @@ from modesel.aero import (AeroBlade, BemOptions, BemSolver, Polar, PolarSet, Tow
                           axial_induction, pitt_peters, prandtl_loss, skew_angles, steady_rotor,
                           thrust_coefficient)
 from modesel.turbine.aerodyn import read_aerodyn
-from modesel.aero.bem import PITT_PETERS_FACTOR
+from modesel.aero.bem import PITT_PETERS_FACTOR, bem_weight
 
 HERE = os.path.dirname(__file__)
 DATA = os.path.join(HERE, "..", "modesel", "turbine", "data", "nrel5mw")
@@ -361,7 +361,7 @@ def warm_solve(solver, buffers, guess, r, vn, vt, skew, psi):
     np.copyto(buffers.c_hub, 0.5 * 3 * (r - solver.hub_radius) / solver.hub_radius)
     return solve_elements(r, vn, vt, buffers.theta, buffers.chord, buffers.offset, skew, psi,
                           r / solver.tip_radius, buffers.c_tip, buffers.c_hub, grid, value, slope,
-                          *solver._constants, buffers.out, guess)
+                          *solver._constants, 1.0, buffers.out, guess)
 
 
 def test_warm_started_roots_equal_cold_solve(deck):
@@ -478,6 +478,40 @@ def test_cp_ct_table_reproduced_near_design(deck):
         if 6.5 <= lam <= 8.5:       # design region: asserted
             assert abs(e_cp) < 0.03 and abs(e_ct) < 0.03
     print("\nsteady_rotor vs NREL5MW_CPCTCQ.txt (pitch 0, no cone/tilt):\n" + "\n".join(lines))
+
+
+def test_bem_weight_is_aerodyn_blend():
+    """AeroDyn's check_turnOffBEMT weight: NWTC BlendCosine(|TSR|, 1, 2),
+    0.5 (1 - cos(pi (TSR - 1))) between the bounds, 0 below, 1 above."""
+    for tsr, w in ((0.0, 0.0), (1.0, 0.0), (1.25, 0.5 * (1 - np.cos(0.25 * np.pi))), (1.5, 0.5),
+                   (-1.5, 0.5), (1.9, 0.5 * (1 - np.cos(0.9 * np.pi))), (2.0, 1.0), (7.0, 1.0), (-7.0, 1.0)):
+        assert bem_weight(tsr) == pytest.approx(w, abs=1e-15), tsr
+
+
+def test_low_tip_speed_ratio_blends_the_induction_out(deck):
+    """A slowly turning rotor (AeroDyn's BEM turn-off, `bem` module doc):
+    at TSR <= 1 no induction (the geometric inflow angle), at TSR 1.5 the
+    inductions are half the BEM solution's and phi follows from them, from
+    TSR 2 on the BEM solution."""
+    U, R = 8.0, 63.0
+
+    def rotor(tsr, **kw):
+        return steady_rotor(U, tsr * U / R, 0.0, deck, **kw)["elements"]
+
+    for tsr in (0.5, 1.0):
+        e = rotor(tsr)
+        assert np.all(e.a == 0.0) and np.all(e.a_prime == 0.0)
+    full = BemSolver.from_blade(deck.blade, deck.blade.span, num_blades=3, hub_radius=1.5,
+                                options=BemOptions.from_deck(deck))
+    r = 1.5 + deck.blade.span
+    half_speed = 1.5 * U / R
+    cold = full.solve(r, U, half_speed * r)                     # the BEM solution (default TSR: high)
+    half = full.solve(r, U, half_speed * r, tsr=1.5)
+    np.testing.assert_allclose(half.a, 0.5 * cold.a, atol=1e-15)
+    np.testing.assert_allclose(half.a_prime, 0.5 * cold.a_prime, atol=1e-15)
+    np.testing.assert_allclose(half.phi, np.arctan2(U * (1 - half.a), half_speed * r * (1 + half.a_prime)))
+    above = rotor(2.0)
+    assert np.any(above.a > 0.0)
 
 
 def test_rated_thrust(deck):

@@ -15,6 +15,16 @@ tolerances:
   30 s (RotSpeed 0.3 %, GenPwr/RtAeroFxh/TTDspFA/OoPDefl1 1 %, IPDefl1
   3 %), standard deviation of OoPDefl1/IPDefl1 within 10 %, NRMSE over the
   whole 80 s <= 2 % (RotSpeed, TTDspFA, OoPDefl1, IPDefl1);
+- low tip-speed ratio, where AeroDyn blends the BEM inductions out (TSR 2
+  -> 1, `aero.bem.bem_weight`): startup_1rpm (steady_08 started at 1 rpm,
+  60 s: the rotor runs up through TSR 0.8-3.4) and the rotor parked in wind
+  (GenDOF off, at rest): parked_storm (20 m/s, blades feathered at 90 deg)
+  and parked_stall (10 m/s, pitch 0, the blades in deep stall). Without the
+  blend the start-up missed GenPwr by -3.47 % and RotSpeed by -0.99 %, and
+  both parked cases were refused as statically unstable (the BEM branch
+  switching at V_t = 0 under the linearisation's steps; run anyway,
+  parked_storm's RtAeroFxh NRMSE was 38 %, README "Further OpenFAST
+  cases"): means over the last 30 s and NRMSE over the run as above;
 - with the OpenFAST executable present (slow): the committed decks give the
   committed reference again.
 """
@@ -100,6 +110,37 @@ def test_turbine_in_wind_matches_openfast(case):
         assert b.RotSpeed.mean() > 1.25 * before
     else:                           # the pitch is held at 10 deg, in both
         assert np.allclose(out.BldPitch1, 10.0) and np.allclose(ref.BldPitch1, 10.0, atol=1e-5)
+
+
+#: low-TSR cases: channels whose means (last 30 s) and NRMSE (whole run) are held to the tolerances
+#: above (not the mean of the start-up's IPDefl1: gravity swings it +-0.3 m about a mean of -0.1 m
+#: over a window of a non-whole number of slowly quickening revolutions; its NRMSE is held)
+LOW_TSR = {"startup_1rpm": (("RotSpeed", "GenPwr", "RtAeroFxh", "TTDspFA", "OoPDefl1"),
+                            ("RotSpeed", "RtAeroFxh", "TTDspFA", "OoPDefl1", "IPDefl1")),
+           "parked_storm": (("RtAeroFxh", "OoPDefl1", "IPDefl1", "RootMyc1"),
+                            ("RtAeroFxh", "TTDspFA", "OoPDefl1", "IPDefl1", "RootMyc1")),
+           "parked_stall": (("RtAeroFxh", "TTDspFA", "OoPDefl1", "IPDefl1", "RootMyc1", "TwrBsMyt"),
+                            ("RtAeroFxh", "TTDspFA", "OoPDefl1", "IPDefl1", "RootMyc1"))}
+
+
+@pytest.mark.parametrize("case", sorted(LOW_TSR))
+def test_low_tip_speed_ratio_matches_openfast(case):
+    out, ref = run(case)
+    tmax = float(ref.Time.iloc[-1])
+    assert out.Time.iloc[-1] == pytest.approx(tmax)
+    if case == "startup_1rpm":      # the run-up crosses AeroDyn's blend, TSR 1 -> 2
+        assert ref.RtTSR.min() < 1.0 and ref.RtTSR.max() > 2.0
+    else:                           # parked: the rotor stays at rest, TSR far below 1 (no induction)
+        assert np.abs(ref.RtTSR).max() < 0.1 and np.abs(out.RotSpeed).max() < 0.05
+    mean_channels, nrmse_channels = LOW_TSR[case]
+    a, b = (f[f.Time >= tmax - 30.0 - 1e-9] for f in (out, ref))
+    means = {c: a[c].mean() / b[c].mean() - 1 for c in mean_channels}
+    errs = {c: nrmse(out, ref, c) for c in nrmse_channels}
+    text = (", ".join(f"mean {c} {v:+.2%}" for c, v in means.items()) + "; "
+            + ", ".join(f"NRMSE {c} {v:.2%}" for c, v in errs.items()))
+    print(f"\n{case}: {text}")
+    assert all(abs(v) <= MEAN_TOLERANCES.get(c, 0.01) for c, v in means.items()), text
+    assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
 
 
 def openfast_executable():

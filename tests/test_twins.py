@@ -182,7 +182,7 @@ def blade_point_loads(rng):
 
 @twin("blade_inflow")
 def blade_inflow(rng):
-    """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles, the
+    """model.effects.aero.inflow (numba) / Wind.vector, aero.skew_angles, AeroDyn's TSR, the
     annulus frame of AeroDyn's NoSweepPitchTwist projection and its
     EulerExtract of the deflected section (numpy, scipy Rotation: the
     section's rotation from Euler parameters (w, theta/2), ElastoDyn's
@@ -201,8 +201,8 @@ def blade_inflow(rng):
                 direction=rng.uniform(-0.5, 0.5))
     vn, vt, skew, psi, theta, r_local, ratio = (np.empty((B, M)) for _ in range(7))
     en, et, vrel = np.empty((B, M, 3)), np.empty((B, M, 3)), np.empty(3)
-    inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, rotation, A, wind.params(0.0), vn, vt, skew, psi, en,
-           et, theta, r_local, ratio, vrel)
+    tsr = inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, rotation, A, wind.params(0.0), vn, vt, skew, psi,
+                 en, et, theta, r_local, ratio, vrel)
     xs, zb = R[0, :, 0], R[1:, :, 2]
     e_c = unit(xs - (zb @ xs)[:, None] * zb)                       # coned normal
     e_t = np.cross(e_c, zb)
@@ -231,7 +231,9 @@ def blade_inflow(rng):
             ("r_local", r_ref, r_local),
             ("tip ratio", r_ref / r_ref.max(axis=1, keepdims=True), ratio),
             ("chi_0", np.broadcast_to(chi0, (B, M)), skew),
-            ("psi", np.broadcast_to(psi_ref[:, None], (B, M)), psi)]
+            ("psi", np.broadcast_to(psi_ref[:, None], (B, M)), psi),
+            # AeroDyn's TSR (SetInputsForBEMT): hub spin about the shaft x max rLocal / V_dot_x
+            ("tip-speed ratio", (vec[0, 2] @ xs) * r_ref.max() / (disk @ xs), tsr)]
 
 
 # ----------------------------------------------------------------------------- multibody

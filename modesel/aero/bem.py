@@ -67,6 +67,17 @@ loads). Elements with no root bracket, V_n <= 0 or V_t <= 0 (parked,
 reversed flow) get no induction (a = a' = 0, geometric inflow angle) and
 `converged=False`. Loads are always 1/2 rho W^2 c (Cl, Cd) resolved with
 the final phi = atan2(V_n (1 - a), V_t (1 + a')).
+
+Low tip-speed ratio (AeroDyn BEMT.f90 `check_turnOffBEMT`): below a rotor
+tip-speed ratio of 2 the inductions of every element are scaled by the
+weight `bem_weight(TSR)`, a cosine blend from 1 at TSR 2 to 0 at TSR 1 and
+below (NWTC `BlendCosine`, bounds BEMT_lowerBoundTSR / BEMT_upperBoundTSR),
+and phi follows from the scaled inductions: a rotor at rest or starting up
+sees the geometric inflow. AeroDyn's TSR is the rotor speed about the shaft
+times the largest rLocal of all blades over the disk-averaged relative wind
+along the shaft (`modesel.model.effects.aero.inflow`); `solve_into` and the
+compiled loop take the weight, `BemSolver.solve` the TSR. With weight 0 no
+root is solved (the inductions would be scaled to zero).
 """
 from __future__ import annotations
 
@@ -85,6 +96,12 @@ PITT_PETERS_FACTOR = 15.0 * np.pi / 32.0
 F_MIN = 1e-4
 A_LIMITS = (-1.0, 1.5)
 AP_LIMITS = (-1.0, 1.0)
+#: AeroDyn's InductionLimit: a' where k' = 1 (getTangentialInduction), before the limits above
+INDUCTION_LIMIT = 1e6
+#: AeroDyn's BEMT_lowerBoundTSR / BEMT_upperBoundTSR (BEMTUncoupled.f90): no induction at or
+#: below the lower tip-speed ratio, full induction from the upper (module doc, "Low tip-speed ratio")
+TSR_BEM_OFF = 1.0
+TSR_BEM_ON = 2.0
 
 
 @dataclass(frozen=True)
@@ -190,9 +207,9 @@ def _one_minus_a_buhl(k, F):
 def _axial_induction(k, F):
     """Axial induction a(k, F) for phi > 0: momentum theory a = k / (1 + k) up
     to a = 0.4 (k <= 2/3), Buhl's Glauert correction beyond (continuous in
-    value and slope at a = 0.4)."""
+    value and slope at a = 0.4). At k = -1 AeroDyn's -InductionLimit."""
     if k <= 2.0 / 3.0:
-        return k / (1.0 + k)
+        return k / (1.0 + k) if k != -1.0 else -INDUCTION_LIMIT
     return 1.0 - _one_minus_a_buhl(k, F)
 
 
@@ -252,6 +269,18 @@ def skew_angles(wind, axis, radial):
 # lambda_r = V_t / V_n, c_hub) and the polar row `offset` (c_tip, c_hub: the loss
 # constants, `loss_constants`); flags = (tip, hub, tangential induction, axial
 # drag, tangential drag).
+
+@njit(cache=True)
+def bem_weight(tsr):
+    """Weight of the BEM inductions at rotor tip-speed ratio `tsr` (module doc,
+    "Low tip-speed ratio"): NWTC BlendCosine(|tsr|, TSR_BEM_OFF, TSR_BEM_ON)."""
+    x = abs(tsr)
+    if x >= TSR_BEM_ON:
+        return 1.0
+    if x <= TSR_BEM_OFF:
+        return 0.0
+    return 0.5 * (1.0 - np.cos((x - TSR_BEM_OFF) / (TSR_BEM_ON - TSR_BEM_OFF) * np.pi))
+
 
 @njit(cache=True, inline="always")
 def _loss_raw(e, s, flags):
@@ -384,10 +413,12 @@ def _chandrupatla(lo, f_lo, hi, f_hi, e, offset, flags, grid, value, slope, tol,
 @njit(cache=True)
 def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip, c_hub, grid, value, slope,
                     B, rho, tip, hub, tan_ind, ai_drag, ti_drag,
-                    skew_corr, skew_factor, tol, max_iter, out, guess):
+                    skew_corr, skew_factor, tol, max_iter, weight, out, guess):
     """All elements; fills `out` rows: a, a', phi, alpha, cl, cd, cm, W, F,
     f_n, f_t, m, converged. tip_ratio: r / R of the Pitt/Peters correction;
-    c_tip, c_hub: loss constants. guess: empty (every element solved cold),
+    c_tip, c_hub: loss constants; weight: `bem_weight` of the rotor's
+    tip-speed ratio, scaling every element's inductions (0: none solved, the
+    guesses kept). guess: empty (every element solved cold),
     or one inflow angle [rad] per element, read as `_solve_phi`'s guess and
     overwritten with this solve's root (NaN where none): the compiled
     integration loop keeps it between right-hand sides. Returns the largest
@@ -401,7 +432,9 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
         fixed = (tip and c_tip[i] <= 0.0) or (hub and c_hub[i] <= 0.0)
         a, ap, ok = (1.0, 0.0, True) if fixed else (0.0, 0.0, False)
         e = (c_tip[i], theta[i], 0.0, 1.0, c_hub[i])
-        if vn[i] > 0.0 and vt[i] > 0.0 and ri > 0.0 and not fixed:
+        if weight == 0.0:
+            a, ap, ok = 0.0, 0.0, True
+        elif vn[i] > 0.0 and vt[i] > 0.0 and ri > 0.0 and not fixed:
             sigma4 = B * chord[i] / (8.0 * np.pi * ri)
             e = (c_tip[i], theta[i], sigma4, vt[i] / vn[i], c_hub[i])
             phi, found, it = _solve_phi(e, offset[i], flags, grid, value, slope, tol, max_iter,
@@ -416,10 +449,14 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
                 ct = cl * s - cd * c if ti_drag else cl * s
                 F = _loss(e, s, flags)
                 k = sigma4 * cn / (F * s * s)
-                a = _axial_induction(k, F) if phi > 0.0 else k / (k - 1.0)
-                if tan_ind:
-                    kp = sigma4 * ct / (F * s * c)
-                    ap = kp / (1.0 - kp)
+                # propeller brake at k = 1: AeroDyn marks the solution invalid (no induction)
+                a = _axial_induction(k, F) if phi > 0.0 else (k / (k - 1.0) if k != 1.0 else np.nan)
+                if tan_ind:     # AeroDyn getTangentialInduction, with its guards at cos(phi) = 0 and k' = 1
+                    if c == 0.0:
+                        ap = -1.0
+                    else:
+                        kp = sigma4 * ct / (F * s * c)
+                        ap = kp / (1.0 - kp) if kp != 1.0 else INDUCTION_LIMIT
                 if skew_corr:
                     a = _pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
                 ok = np.isfinite(a) and np.isfinite(ap)
@@ -428,6 +465,8 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
                     ap = min(max(ap, AP_LIMITS[0]), AP_LIMITS[1])
                 else:
                     a = ap = 0.0
+        a *= weight
+        ap *= weight
         un, ut = vn[i] * (1.0 - a), vt[i] * (1.0 + ap)
         phi = np.arctan2(un, ut)
         s, c = np.sin(phi), np.cos(phi)
@@ -598,7 +637,7 @@ class BemSolver:
                           *static[3:], np.empty(shape))
 
     def solve_into(self, buffers: BemBuffers, r, v_normal, v_tangential, pitch, skew,
-                   skew_azimuth, tip_ratio=None, section_angle=None) -> int:
+                   skew_azimuth, tip_ratio=None, section_angle=None, weight: float = 1.0) -> int:
         """Solve all elements into `buffers` (from `allocate`) without allocating.
 
         r, v_normal, v_tangential, skew, skew_azimuth : C-contiguous float
@@ -607,7 +646,8 @@ class BemSolver:
         tip_ratio : r / R of the Pitt/Peters correction (AeroDyn: rLocal over
         the largest rLocal of the blade), default r / tip_radius;
         section_angle [rad] : each element's pitch + twist (aerodynamic and
-        elastic, AeroDyn's theta) replacing pitch + the blade's twist.
+        elastic, AeroDyn's theta) replacing pitch + the blade's twist;
+        weight : `bem_weight` of the rotor's tip-speed ratio (module doc).
         Returns the largest root-solver iteration count; the loads are
         `buffers.f_n`, `buffers.f_t` or `buffers.loads()`.
         """
@@ -630,12 +670,14 @@ class BemSolver:
         return _solve_elements(r.ravel(), v_normal.ravel(), v_tangential.ravel(), buffers.theta.ravel(),
                                buffers.chord.ravel(), buffers.offset.ravel(), skew.ravel(),
                                skew_azimuth.ravel(), buffers.tip_ratio.ravel(), buffers.c_tip.ravel(),
-                               buffers.c_hub.ravel(), grid, value, slope, *self._constants, buffers.out,
-                               _COLD)
+                               buffers.c_hub.ravel(), grid, value, slope, *self._constants, float(weight),
+                               buffers.out, _COLD)
 
     def solve(self, r, v_normal, v_tangential, pitch=0.0, skew=0.0, skew_azimuth=0.0,
-              tip_ratio=None) -> ElementLoads:
-        """Solve all elements; see the module docstring for inputs and outputs."""
+              tip_ratio=None, tsr=np.inf) -> ElementLoads:
+        """Solve all elements; see the module docstring for inputs and outputs.
+        tsr: the rotor's tip-speed ratio in AeroDyn's definition (module doc,
+        "Low tip-speed ratio"; default: high, full induction)."""
         r, vn, vt, pitch, skew, psi = (np.asarray(x, dtype=float) for x in
                                        (r, v_normal, v_tangential, pitch, skew, skew_azimuth))
         shape = np.broadcast_shapes(r.shape, vn.shape, vt.shape, pitch.shape, skew.shape,
@@ -652,5 +694,6 @@ class BemSolver:
         buffers = self.allocate(shape)
         iterations = self.solve_into(buffers, *(flat(x) for x in (r, vn, vt)), pitch,
                                      *(flat(x) for x in (skew, psi)),
-                                     None if tip_ratio is None else flat(np.asarray(tip_ratio, float)))
+                                     None if tip_ratio is None else flat(np.asarray(tip_ratio, float)),
+                                     weight=bem_weight(float(tsr)))
         return buffers.loads(iterations)

@@ -4,7 +4,8 @@
 tilted rotor, builds the element inflow (V_n, V_t, skew) for several rotor
 azimuths, solves all elements at once with `BemSolver` and integrates the
 loads along the span with the trapezoidal rule (AeroDyn node loads, like its
-line-to-point load mapping), averaging over the azimuths.
+line-to-point load mapping), averaging over the azimuths. Below a tip-speed ratio of 2 the inductions
+are blended out as in AeroDyn (`bem` module doc, "Low tip-speed ratio").
 
 Geometry (ElastoDyn axes and sign conventions, as the `Turbine` dataclass):
 shaft axis x_s = (cos tilt, 0, sin tilt) with `shaft_tilt` = ShftTilt
@@ -93,7 +94,10 @@ def steady_rotor(wind_speed, rotor_speed, pitch, aero, *, hub_radius: float = 1.
     skew = np.arctan2(plane, vx)
     cos_rel = np.where(plane > 0, v_radial / np.where(plane > 0, plane, 1.0), 1.0)
     skew_azimuth = np.arccos(np.clip(cos_rel, -1.0, 1.0))
-    loads = solver.solve(r, v_n, v_t, pitch, skew, skew_azimuth)
+    # AeroDyn's TSR for the low-TSR blend (`bem` module doc): largest r over the disk-averaged wind along x_s
+    v_dot_x = float(np.mean(np.broadcast_to(vx, v_n.shape)))
+    loads = solver.solve(r, v_n, v_t, pitch, skew, skew_azimuth,
+                         tsr=rotor_speed * float(np.max(r)) / v_dot_x if v_dot_x != 0.0 else 0.0)
     thrust = np.trapezoid(loads.f_n * cb, span, axis=-1).sum(axis=-1).mean()
     torque = np.trapezoid(loads.f_t * r, span, axis=-1).sum(axis=-1).mean()
     R = hub_radius + blade.span[-1]

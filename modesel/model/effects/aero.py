@@ -40,7 +40,10 @@ Needs [effects.wind]. At every right-hand side:
 3. Skew (Pitt-Peters): chi_0 is the angle between x_s and the
    disk-averaged relative wind (wind minus station velocity over all
    stations, AeroDyn's V_diskAvg); psi is each blade's azimuth from the
-   in-plane direction of that wind.
+   in-plane direction of that wind. The rotor's tip-speed ratio (the hub's
+   spin about x_s times the largest r_local over that wind along x_s) sets
+   the weight of the inductions below TSR 2 (`bem.bem_weight`, AeroDyn's
+   check_turnOffBEMT): a parked or starting rotor sees the geometric inflow.
 4. BEM for all blades and stations at once -> f_n, f_t [N/m]:
    `BemSolver.solve_into` on buffers preallocated once (`StationBem`;
    `solve` allocates its result at every call, which costs as much as the
@@ -148,8 +151,9 @@ class BladeAerodynamics(Effect):
     }
 
     def setup(self, built):
-        from modesel.aero.bem import BemOptions, BemSolver
+        from modesel.aero.bem import BemOptions, BemSolver, bem_weight
         model, eq, t = built.model, built.eq, built.model.turbine
+        self.bem_weight = bem_weight
         self.wind = wind_of(self, built)
         deck = aerodyn_deck(self)
         self.deck = deck
@@ -223,11 +227,11 @@ class BladeAerodynamics(Effect):
         for b, st in enumerate(self.stations):
             st.kinematics(frames, q_all, qd_all, self.pos[b], self.vel[b])
             station_rotations(R[self.blades[b]], self.slopes[b], q_all[st.idx], self.rotation[b])
-        inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.rotation, self.reference,
-               self.wind.params(t), self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
-               self.r, self.tip_ratio, self.vrel)
+        tsr = inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.rotation, self.reference,
+                     self.wind.params(t), self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
+                     self.r, self.tip_ratio, self.vrel)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
-                          self.theta)
+                          self.theta, self.bem_weight(tsr))
         distribute(fn, ft, self.en, self.et, *self.transfer_rows, self.forces)
         if self.correction.shape[2]:
             elastic_correction(fn, ft, self.en, self.et, R, self.blades, self.correction, self.elastic, generalized)
@@ -335,8 +339,8 @@ class StationBem:
         self.solver = solver
         self.buffers = solver.allocate((n_blades, solver.chord.size))
 
-    def __call__(self, r, vn, vt, pitch, skew, psi, tip_ratio=None, section_angle=None):
-        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi, tip_ratio, section_angle)
+    def __call__(self, r, vn, vt, pitch, skew, psi, tip_ratio=None, section_angle=None, weight=1.0):
+        self.solver.solve_into(self.buffers, r, vn, vt, pitch, skew, psi, tip_ratio, section_angle, weight)
         return self.buffers.f_n, self.buffers.f_t
 
 
@@ -717,6 +721,11 @@ def station_rotations(R_blade, G, qe, out):
             out[k, i] = -R_blade[i, 0] * g1 + R_blade[i, 1] * g0
 
 
+#: NWTC EqualRealNos8's tolerance about zero (50 machine epsilons): AeroDyn's TSR is 0 for a
+#: disk-averaged wind along the shaft this small (`inflow`)
+ZERO_TOLERANCE = 50.0 * 2.220446049250313e-16
+
+
 @njit(cache=True)
 def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, theta, r_local,
            tip_ratio, vrel):
@@ -728,12 +737,16 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en
     section's pitch + twist, aerodynamic and elastic, as AeroDyn extracts it),
     r_local and tip_ratio (B, M), skew and psi (B, M), and vrel (3,) the
     disk-averaged relative wind (wind minus station velocity, averaged
-    over all stations)."""
+    over all stations). Returns the rotor's tip-speed ratio as AeroDyn
+    forms it for `bem.bem_weight` (AeroDyn.f90 SetInputsForBEMT): the hub's
+    angular velocity about the shaft times the largest r_local of all blades
+    over vrel along the shaft (0 where that wind is zero)."""
     xs = R[hub, :, 0]
     apex = vec[hub, 0]
     vrel[0] = 0.0
     vrel[1] = 0.0
     vrel[2] = 0.0
+    r_rotor = 0.0
     for b in range(blades.shape[0]):
         zb = R[blades[b], :, 2]
         c = xs[0] * zb[0] + xs[1] * zb[1] + xs[2] * zb[2]
@@ -780,6 +793,7 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en
             rmax = max(rmax, r_local[b, k])
         for k in range(pos.shape[1]):
             tip_ratio[b, k] = r_local[b, k] / rmax
+        r_rotor = max(r_rotor, rmax)
     n = blades.shape[0] * pos.shape[1]
     vrel[0] /= n
     vrel[1] /= n
@@ -801,6 +815,10 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en
         for k in range(pos.shape[1]):
             skew[b, k] = chi0
             psi[b, k] = psi_b
+    if abs(wa) <= ZERO_TOLERANCE:
+        return 0.0
+    w_hub = vec[hub, 2]
+    return (w_hub[0] * xs[0] + w_hub[1] * xs[1] + w_hub[2] * xs[2]) * r_rotor / wa
 
 
 @njit(cache=True)

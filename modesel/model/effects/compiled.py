@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import cfunc, njit
 
-from modesel.aero.bem import solve_elements
+from modesel.aero.bem import bem_weight, solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
 from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
@@ -165,8 +165,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
         station_rotations(R[blades[b]], Gs, qe, rotation[b])
     wp = state[0:N_PARAMS]
-    inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
-           tip_ratio, vrel)
+    tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
+                 tip_ratio, vrel)
     c = floats[o_const:o_const + 7]
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
@@ -185,7 +185,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
-                   c[4], c[5], flags[6], out, guess)
+                   c[4], c[5], flags[6], bem_weight(tsr), out, guess)
     fn = out[9].reshape((B, M))
     ft = out[10].reshape((B, M))
     if has_corr != 0:
