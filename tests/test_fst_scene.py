@@ -230,6 +230,47 @@ def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     assert len(lines) == 1 and "steady_08_ServoDyn.dat: PCMode: PCMode = 5" in lines[0]
 
 
+def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path):
+    """OpenFAST writes outputs from TStart on: so does `modesel simulate`
+    (simulated from t = 0). The channels the case's OutLists name that
+    modesel does not compute are listed in a note (here ElastoDyn's
+    YawBrFxp and InflowWind's Wind1VelX, among others), as are the scene's
+    notes (BlPitch differing from PitNeut); RotSpeed is computed."""
+    fst = copy_case(tmp_path)
+    edit(fst, "TMax", "1.0")
+    edit(fst, "TStart", "0.5")
+    for k in (1, 2, 3):
+        edit(fst.parent / "steady_08_ElastoDyn.dat", f"BlPitch({k})", "1.0")
+    out = tmp_path / "o.csv"
+    run = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(fst), "--out", str(out)],
+                         capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert run.returncode == 0, run.stderr
+    import pandas as pd
+    time = pd.read_csv(out, header=[0, 1]).droplevel(1, axis=1).Time.to_numpy()
+    np.testing.assert_allclose(time, [0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 1.0], atol=1e-9)
+    note = next(line for line in run.stdout.splitlines() if "OutLists" in line)
+    missing = note.split(": ", 1)[1].split(", ")
+    assert "YawBrFxp" in missing and "Wind1VelX" in missing and "RotSpeed" not in missing
+    assert any("note:" in line and "PitNeut" in line for line in run.stdout.splitlines())
+
+
+def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):
+    """A tower-top mass beyond the buckling load: refused in one line (exit 2)
+    naming the way to simulate it anyway; with --no-stability-check it runs
+    (and the tower falls over: the side-side deflection grows)."""
+    fst = copy_case(tmp_path)
+    edit(fst, "TMax", "0.5")
+    edit(fst.parent / "steady_08_ElastoDyn.dat", "NacMass", "6.0E7")
+    cmd = [sys.executable, "-m", "modesel", "simulate", str(fst), "--out", str(tmp_path / "o.csv")]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    refused = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env)
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1
+    assert "--no-stability-check" in refused.stderr
+    anyway = subprocess.run(cmd + ["--no-stability-check"], capture_output=True, text=True, cwd=ROOT, env=env)
+    assert anyway.returncode in (0, 2), anyway.stderr       # runs; may end in a reported divergence
+    assert "physically unstable" not in anyway.stderr and "Traceback" not in anyway.stderr
+
+
 def test_every_dof_off_is_a_one_line_error(tmp_path):
     """OpenFAST runs a case with every ElastoDyn DOF off (prescribed rotor);
     modesel, which simulates free DOFs, refuses it in one line naming the inputs."""

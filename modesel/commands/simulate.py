@@ -23,6 +23,9 @@ def register(sub):
     p.add_argument("--tmax", type=positive_float, help="simulated time [s] (default: the scene's)")
     p.add_argument("--dt", type=positive_float, help="output step [s] (default: the scene's)")
     p.add_argument("--out", required=True, help="output CSV file (second header row: units)")
+    p.add_argument("--no-stability-check", action="store_true",
+                   help="simulate a statically unstable configuration instead of refusing it (as the scene's "
+                        "[solver] stability_check = false; for .fst and ElastoDyn files)")
     p.set_defaults(func=run)
 
 
@@ -37,6 +40,8 @@ def _run(args, started) -> int:
     from modesel.simulation.api import load_scene, simulate
     from modesel.simulation.progress import CompileProgress, SimulationProgress, speed_text
     scene = load_scene(args.scene)
+    if args.no_stability_check:
+        scene.solver = dict(scene.solver, stability_check=False)
     started()
     line = SimulationProgress(f"{scene.name}: ")
     try:
@@ -51,6 +56,13 @@ def _run(args, started) -> int:
     print(f"  effects evaluated: {', '.join(on) or 'none'}; system flags on: {', '.join(flags) or 'none'}")
     print(f"  {result.simulated_time_s:g} s simulated in {result.wall_time_s:.3g} s "
           f"({speed_text(result.simulated_time_s, result.wall_time_s)}, {result.method}) -> {args.out}")
+    for text in scene.notes:
+        print(f"  note: {text}")
+    have = {c.lower() for c in result.columns}
+    missing = [c for c in scene.out_list if c.lower() not in have]
+    if missing:
+        print(f"  note: {len(missing)} of the {len(scene.out_list)} channels the case's OutLists name are not "
+              f"computed by modesel (not in {args.out}): {', '.join(missing)}")
     for text in warnings:
         print(f"modesel: warning: {scene.name}: {text}", file=sys.stderr)
     return 0

@@ -14,7 +14,11 @@ What the case's modules become:
   effect (ServoDyn's simple variable-speed law or induction generator,
   GenEff, on/off switching) and the pitch held at PitNeut; without
   ServoDyn the generator torque is zero and the pitch stays at BlPitch.
-- TMax and DT_Out ("default": DT) are the scene's tmax and dt.
+- TMax and DT_Out ("default": DT) are the scene's tmax and dt; TStart its
+  output_start (outputs from then on, as OpenFAST writes them).
+- The OutLists of ElastoDyn, AeroDyn, ServoDyn and InflowWind are the scene's
+  out_list: `modesel simulate` names the channels among them that modesel
+  does not compute.
 - Integration tolerances looser than a TOML scene's default rtol 1e-8 /
   atol 1e-10: without AeroDyn `SOLVER` (rtol 1e-5, atol 1e-6, DOP853); with
   it `SOLVER_BEM` (rtol 3e-6, atol 3e-7), where "auto" integrates the
@@ -102,15 +106,20 @@ def scene_from_fst(path):
     dt_out = f.number("DT_Out", default=f.number("DT"))
     if dt_out <= 0:
         raise f.error(f"must be > 0, got {dt_out:g}", "DT_Out")
+    t_start = f.number("TStart", default=0.0)
+    if not 0.0 <= t_start <= tmax:
+        raise f.error(f"must lie in [0, TMax = {tmax:g}] s, got {t_start:g}", "TStart")
     ed = InputFile(f.referenced("EDFile"), "ElastoDyn")
     _check_elastodyn(ed)
     scene = scene_from_elastodyn(path)
-    scene.tmax, scene.dt = tmax, dt_out
+    scene.tmax, scene.dt, scene.output_start = tmax, dt_out, t_start
+    out_list = ed.outlist()
     notes = list(scene.notes)
     effects = dict(scene.effects)
     pitch_deg = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
     if f.integer("CompServo") == 1:
         servo = _servodyn(f, tmax, yaw_dof=bool(scene.turbine.dofs.get("YawDOF")))
+        out_list += InputFile(f.referenced("ServoFile"), "ServoDyn").outlist()
         effects["generator"] = servo["generator"]
         pitch_deg = np.array(servo["pitch_deg"][:scene.turbine.num_blades])
         if "GeAz" not in scene.free:
@@ -129,6 +138,7 @@ def scene_from_fst(path):
         from modesel.turbine.aerodyn import aerodyn_case_options
         ad_path = f.referenced("AeroFile")
         ad = aerodyn_case_options(ad_path)
+        out_list += InputFile(ad_path, "AeroDyn").outlist()
         notes += ad["notes"]
         aero = {"aerodyn": str(ad_path.resolve()), "skew": ad["skew"]}
         if ad["air_density_default"] and "AirDens" in f:
@@ -138,12 +148,14 @@ def scene_from_fst(path):
         if f.integer("CompInflow") == 1:
             from modesel.turbine.inflowwind import read_inflowwind
             effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)
+            out_list += InputFile(f.referenced("InflowFile"), "InflowWind").outlist()
         else:
             effects["wind"] = {"speed": 0.0}
     validate_effects(effects, str(path), path.parent)
     scene.solver = dict(SOLVER_BEM if "aero" in effects else SOLVER, **scene.solver)
     scene.effects = effects
     scene.notes = tuple(notes)
+    scene.out_list = tuple(dict.fromkeys(out_list))
     return scene
 
 

@@ -92,6 +92,11 @@ class Scene:
     solver: dict = field(default_factory=dict)
     path: str | None = None
     notes: tuple = ()
+    #: an OpenFAST case's requested output channels (its modules' OutLists), for
+    #: the note on those modesel does not compute; output_start [s]: the first
+    #: output time (the case's TStart), earlier rows are simulated but not output
+    out_list: tuple = ()
+    output_start: float = 0.0
 
     @property
     def fields(self) -> tuple:

@@ -72,5 +72,6 @@ def check_static_stability(lin: LinearModel, *, file=None, fields=None, lam=None
         what = (fields or {}).get(worst[0])
         raise PhysicallyUnstable(f"{what} ({worst[0]})" if what else worst[0], worst[1], file=file,
                                  detail="e.g. a tower-top mass beyond the buckling load; check the "
-                                        "masses and stiffnesses (or set [solver] stability_check = false "
-                                        "to simulate it anyway)")
+                                        "masses and stiffnesses (or set [solver] stability_check = false, "
+                                        "or give `modesel simulate` --no-stability-check, to simulate it "
+                                        "anyway)")

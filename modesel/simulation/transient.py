@@ -106,6 +106,10 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
     columns = channels(built, integ, None if wanted is None else set(wanted))
+    start = scene.output_start
+    if start > 0.0:     # an OpenFAST case's TStart: simulated from 0, output from TStart on
+        keep = columns["Time"] >= start - 1e-9 * dt
+        columns = {c: v[keep] for c, v in columns.items()}
     units = {c: u for c in columns if (u := channel_unit(c)) is not None}
     return SimulationResult(columns, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs, units)
 

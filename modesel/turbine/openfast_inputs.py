@@ -32,6 +32,7 @@ class InputFile:
         except OSError as exc:
             raise ModeselError(f"cannot read the {what} file: {exc.strerror}", file=str(path)) from None
         self.values = {}          # label -> (line index, value text)
+        self.outlist_at = None    # line index of the first OutList header
         for i, line in enumerate(self.lines):
             tokens = line.split()
             if not tokens:
@@ -114,6 +115,23 @@ class InputFile:
         if not target.is_file():
             raise self.error(f"referenced file '{name}' not found (looked for {target})", label)
         return target.resolve()
+
+    def outlist(self) -> list:
+        """The channel names of the file's first OutList ([] without one):
+        OpenFAST's list, quoted names (several per line, separated by commas,
+        semicolons or blanks) up to the line that starts with END; a leading
+        '-' or 'M' sign prefix is OpenFAST's negation and is dropped only for '-'."""
+        if self.outlist_at is None:
+            return []
+        names = []
+        for line in self.lines[self.outlist_at + 1:]:
+            if line.lstrip()[:3].upper() == "END":
+                break
+            quoted = re.findall(r'"([^"]*)"|\'([^\']*)\'', line)
+            parts = [a or b for a, b in quoted] if quoted else line.split()[:1]
+            for part in parts:
+                names += [n.lstrip("-") for n in re.split(r"[,;\s]+", part) if n.strip("-")]
+        return names
 
     def unsupported(self, label: str, what: str):
         """The one-line error for an option modesel does not model."""
