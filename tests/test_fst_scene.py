@@ -271,6 +271,22 @@ def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):
     assert "physically unstable" not in anyway.stderr and "Traceback" not in anyway.stderr
 
 
+def test_generator_channels_with_gendof_off(tmp_path, outb_08):
+    """GenDOF off: the generator turns at the fixed speed and its torque acts
+    on no free coordinate, but OpenFAST still writes ServoDyn's GenTq and
+    GenPwr (the law at that speed): so does modesel, without a warning. At
+    9 rpm they equal OpenFAST's first output of steady_08 (same speed)."""
+    fst = copy_case(tmp_path)
+    edit(fst.parent / "steady_08_ElastoDyn.dat", "GenDOF", "False")
+    scene = load_scene(fst)
+    from modesel.model.effects import effects_in_scene
+    out = simulate(scene, tmax=0.5).outputs
+    on, _, warnings = effects_in_scene(scene, [d for d in scene.free if d != "GeAz"])
+    assert "generator" in on and not [w for w in warnings if "generator" in w]
+    for name in ("GenTq", "GenPwr"):
+        np.testing.assert_allclose(out[name], outb_08[name].iloc[0], rtol=1e-6, err_msg=name)
+
+
 def test_every_dof_off_is_a_one_line_error(tmp_path):
     """OpenFAST runs a case with every ElastoDyn DOF off (prescribed rotor);
     modesel, which simulates free DOFs, refuses it in one line naming the inputs."""

@@ -14,6 +14,9 @@ What the case's modules become:
   effect (ServoDyn's simple variable-speed law or induction generator,
   GenEff, on/off switching) and the pitch held at PitNeut; without
   ServoDyn the generator torque is zero and the pitch stays at BlPitch.
+  With GenDOF off the generator stays for its channels GenTq and GenPwr
+  (the law at the fixed speed, as OpenFAST writes them); its torque then
+  acts on no free coordinate (GeAz turns at the fixed speed).
 - TMax and DT_Out ("default": DT) are the scene's tmax and dt; TStart its
   output_start (outputs from then on, as OpenFAST writes them).
 - The OutLists of ElastoDyn, AeroDyn, ServoDyn and InflowWind are the scene's
@@ -122,8 +125,6 @@ def scene_from_fst(path):
         out_list += InputFile(f.referenced("ServoFile"), "ServoDyn").outlist()
         effects["generator"] = servo["generator"]
         pitch_deg = np.array(servo["pitch_deg"][:scene.turbine.num_blades])
-        if "GeAz" not in scene.free:
-            del effects["generator"]          # fixed-speed rotor: the torque does not act
         bl = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
         if not np.allclose(bl, pitch_deg):
             notes.append(f"ElastoDyn BlPitch {bl.tolist()} deg differs from ServoDyn PitNeut "

@@ -93,7 +93,10 @@ def effects_in_scene(scene, dof_names) -> tuple[list, list, list]:
     for name in ("aero", "tower_drag"):
         if name in on and "wind" not in on:
             warnings.append(f"{name} is on without [effects.wind]: it acts in still air")
-    if "generator" in on and "GeAz" not in dof_names:
+    # an OpenFAST case with GenDOF off keeps ServoDyn's generator for GenTq and GenPwr, which OpenFAST
+    # writes (the law at the fixed speed): not a setting that acts on nothing (`simulation.fst`)
+    from_fst = scene.path is not None and str(scene.path).lower().endswith(".fst")
+    if "generator" in on and "GeAz" not in dof_names and not from_fst:
         warnings.append("generator torque is on but GeAz is not free: it acts on nothing")
     if "drivetrain" in on and "DrTr" not in dof_names and "drivetrain" in scene.effects:
         warnings.append("[effects.drivetrain] is set but DrTr is not free: it acts on nothing")
