@@ -254,6 +254,18 @@ def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path
     assert any("note:" in line and "PitNeut" in line for line in run.stdout.splitlines())
 
 
+def test_tmax_between_steps_ends_where_openfast_ends(tmp_path):
+    """OpenFAST takes CEILING(TMax / DT) steps: TMax 0.51 s with DT 0.00625 s
+    ends at 0.5125 s, its last output with DT_Out "default"."""
+    fst = copy_case(tmp_path)
+    edit(fst, "TMax", "0.51")
+    edit(fst, "DT_Out", '"default"')
+    scene = load_scene(fst)
+    assert scene.tmax == pytest.approx(0.5125, abs=1e-12) and scene.dt == pytest.approx(0.00625)
+    edit(fst, "TMax", "0.5")
+    assert load_scene(fst).tmax == 0.5
+
+
 def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):
     """A tower-top mass beyond the buckling load: refused in one line (exit 2)
     naming the way to simulate it anyway; with --no-stability-check it runs

@@ -17,7 +17,8 @@ What the case's modules become:
   With GenDOF off the generator stays for its channels GenTq and GenPwr
   (the law at the fixed speed, as OpenFAST writes them); its torque then
   acts on no free coordinate (GeAz turns at the fixed speed).
-- TMax and DT_Out ("default": DT) are the scene's tmax and dt; TStart its
+- TMax and DT_Out ("default": DT) are the scene's tmax (TMax rounded up to a
+  whole number of DT steps, where OpenFAST's last step ends) and dt; TStart its
   output_start (outputs from then on, as OpenFAST writes them).
 - The OutLists of ElastoDyn, AeroDyn, ServoDyn and InflowWind are the scene's
   out_list: `modesel simulate` names the channels among them that modesel
@@ -115,7 +116,7 @@ def scene_from_fst(path):
     ed = InputFile(f.referenced("EDFile"), "ElastoDyn")
     _check_elastodyn(ed)
     scene = scene_from_elastodyn(path)
-    scene.tmax, scene.dt, scene.output_start = tmax, dt_out, t_start
+    scene.tmax, scene.dt, scene.output_start = _end_time(f, tmax), dt_out, t_start
     out_list = ed.outlist()
     notes = list(scene.notes)
     effects = dict(scene.effects)
@@ -158,6 +159,17 @@ def scene_from_fst(path):
     scene.notes = tuple(notes)
     scene.out_list = tuple(dict.fromkeys(out_list))
     return scene
+
+
+def _end_time(f: InputFile, tmax: float) -> float:
+    """The time OpenFAST's last step reaches [s]: it takes CEILING(TMax / DT)
+    steps of DT (FAST_Subs n_TMax_m1), so a TMax that is not a whole number of
+    steps ends after it (TMax 20.01 s, DT 0.00625 s: 20.0125 s)."""
+    dt = f.number("DT")
+    if dt <= 0:
+        raise f.error(f"must be > 0, got {dt:g}", "DT")
+    steps = np.ceil(tmax / dt - 1e-9)
+    return float(steps * dt) if abs(steps * dt - tmax) > 1e-9 * tmax else tmax
 
 
 def _servodyn(f: InputFile, tmax: float, yaw_dof: bool) -> dict:
