@@ -299,6 +299,30 @@ def test_generator_channels_with_gendof_off(tmp_path, outb_08):
         np.testing.assert_allclose(out[name], outb_08[name].iloc[0], rtol=1e-6, err_msg=name)
 
 
+def test_yaw_dof_swings_about_servodyn_neutral_yaw(tmp_path):
+    """YawDOF on with ServoDyn (YCMode 0): the yaw spring YawSpr and damper
+    YawDamp pull the nacelle to YawNeut (here 3 deg from NacYaw 0): after a
+    few cycles of the stiff yaw mode (about 6 Hz) it sits there; a yaw
+    manoeuvre within TMax and yaw friction are refused in one line."""
+    fst = copy_case(tmp_path)
+    edit(fst, "TMax", "4.0")
+    edit(fst.parent / "steady_08_ElastoDyn.dat", "YawDOF", "True")
+    edit(fst.parent / "steady_08_ServoDyn.dat", "YawNeut", "3.0")
+    scene = load_scene(fst)
+    assert scene.effects["yaw"] == {"stiffness": 9.02832e9, "damping": 1.916e7, "neutral_deg": 3.0}
+    out = simulate(scene).outputs
+    assert out.NacYaw.iloc[0] == 0.0
+    settled = out[out.Time >= 3.0].NacYaw     # the swing decays as exp(-1.4 t / s)
+    assert abs(settled.mean() - 3.0) < 0.02 and settled.std() < 0.05
+    edit(fst.parent / "steady_08_ServoDyn.dat", "TYawManS", "1.0")
+    with pytest.raises(ModeselError, match="TYawManS"):
+        load_scene(fst)
+    edit(fst.parent / "steady_08_ServoDyn.dat", "TYawManS", "9999.9")
+    edit(fst.parent / "steady_08_ElastoDyn.dat", "YawFrctMod", "1")
+    with pytest.raises(ModeselError, match="YawFrctMod"):
+        load_scene(fst)
+
+
 def test_every_dof_off_is_a_one_line_error(tmp_path):
     """OpenFAST runs a case with every ElastoDyn DOF off (prescribed rotor);
     modesel, which simulates free DOFs, refuses it in one line naming the inputs."""

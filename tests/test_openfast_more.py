@@ -25,6 +25,11 @@ tolerances:
   switching at V_t = 0 under the linearisation's steps; run anyway,
   parked_storm's RtAeroFxh NRMSE was 38 %, README "Further OpenFAST
   cases"): means over the last 30 s and NRMSE over the run as above;
+- yaw_release: steady_08 with ElastoDyn's YawDOF on, released from NacYaw
+  5 deg against ServoDyn's yaw spring and damper (YawSpr, YawDamp about
+  YawNeut 0, YCMode 0; the `yaw` effect; refused before): NRMSE over the
+  40 s <= 2 % on NacYaw, TTDspSS, TTDspFA, OoPDefl1, RotSpeed, and the
+  means of the last 20 s as above;
 - with the OpenFAST executable present (slow): the committed decks give the
   committed reference again.
 """
@@ -140,6 +145,19 @@ def test_low_tip_speed_ratio_matches_openfast(case):
             + ", ".join(f"NRMSE {c} {v:.2%}" for c, v in errs.items()))
     print(f"\n{case}: {text}")
     assert all(abs(v) <= MEAN_TOLERANCES.get(c, 0.01) for c, v in means.items()), text
+    assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
+
+
+def test_yaw_release_matches_openfast():
+    out, ref = run("yaw_release")
+    assert ref.NacYaw.iloc[0] == pytest.approx(5.0) and abs(ref.NacYaw.iloc[-1]) < 0.01   # released, settled
+    b, a = (f[f.Time >= 20.0 - 1e-9] for f in (ref, out))
+    means = {c: a[c].mean() / b[c].mean() - 1 for c in ("RotSpeed", "GenPwr", "RtAeroFxh", "TTDspFA", "OoPDefl1")}
+    errs = {c: nrmse(out, ref, c) for c in ("NacYaw", "TTDspSS", "TTDspFA", "OoPDefl1", "RotSpeed")}
+    text = (", ".join(f"mean {c} {v:+.2%}" for c, v in means.items()) + "; "
+            + ", ".join(f"NRMSE {c} {v:.2%}" for c, v in errs.items()))
+    print(f"\nyaw_release: {text}")
+    assert all(abs(v) <= MEAN_TOLERANCES[c] for c, v in means.items()), text
     assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
 
 

@@ -411,6 +411,18 @@ def compiled_loads(rng):
             for pair in rhs_pairs(turbine_with(effects, modes=modes), rng, what, n=n, speeds=speeds)]
 
 
+@twin("yaw_spring")
+def yaw_spring(rng):
+    """The right-hand side with ServoDyn's yaw spring and damper about a neutral
+    yaw of 3 deg on a free yaw (`effects.yaw`, a linear term with its neutral
+    position: packed into the kernel) and a generator law / the Python effects
+    + KaneEquations (numpy reference and kernel)."""
+    built = turbine_with({"yaw": {"stiffness": 9.02832e9, "damping": 1.916e7, "neutral_deg": 3.0},
+                          "generator": {"mode": "variable_speed"}}, free=("GeAz", "DrTr", "Yaw"))
+    assert built.linear[-1][:2] == ("Yaw", "Yaw") and built.linear[-1][4] == pytest.approx(np.radians(3.0))
+    return rhs_pairs(built, rng, "yaw spring")
+
+
 @twin("tower_drag_nodes")
 def tower_drag_nodes(rng):
     """The right-hand side with the tower drag carried to the tower's nodes by the transfer's bands

@@ -17,11 +17,12 @@ class CompiledRHS:
     """A `KaneEquations` packed for the compiled kernel, with its free,
     prescribed and fixed coordinates.
 
-    linear: iterable of (row, column, stiffness, damping) over coordinate
-    names: generalised spring-dampers gen[row] -= k q[column] + c qd[column]
-    [N/m, N s/m or N m/rad, N m s/rad] (e.g. the drivetrain, ElastoDyn
-    DTTorSpr/DTTorDmp). Callable as (t, q, qd) -> (M, F) of the free
-    coordinates like `Built.M_F`; `accelerations(t, q, qd)` solves inside the
+    linear: iterable of (row, column, stiffness, damping[, neutral]) over
+    coordinate names: generalised spring-dampers gen[row] -= k (q[column] -
+    neutral) + c qd[column] [N/m, N s/m or N m/rad, N m s/rad; neutral in
+    the coordinate's unit, default 0] (e.g. the drivetrain, ElastoDyn
+    DTTorSpr/DTTorDmp; ServoDyn's yaw spring about YawNeut). Callable as
+    (t, q, qd) -> (M, F) of the free coordinates like `Built.M_F`; `accelerations(t, q, qd)` solves inside the
     kernel; `dop853`, `rk45` and `radau` integrate entirely compiled, which need every
     prescribed coordinate to be polynomial in t (`compilable`). `full`
     evaluates all coordinates: every row with all_rows=True, else only the
@@ -51,9 +52,9 @@ class CompiledRHS:
             packed = eq.packed_full if all_rows else eq.packed_free
         self.packed = packed
         n, nf = eq.n_all, len(eq.free_idx)
-        lin = list(linear)
-        lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _ in lin], np.int64).reshape(-1, 2)
-        lin_kc = np.array([[k, c] for _, _, k, c in lin], float).reshape(-1, 2)
+        lin = [tuple(term) + (0.0,) * (5 - len(term)) for term in linear]
+        lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _, _ in lin], np.int64).reshape(-1, 2)
+        lin_kc = np.array([[k, c, k * q0] for _, _, k, c, q0 in lin], float).reshape(-1, 3)
         poly = eq.prescribed_polynomials
         self.compilable = poly is not None
         pcoef = np.zeros((len(eq.presc_idx), 3)) if poly is None else poly

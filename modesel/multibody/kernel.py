@@ -815,8 +815,9 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     Returns (status, index of an offending coordinate or -1).
 
     prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
-    gravity, linear (row, col) and (stiffness, damping) of generalised
-    spring-dampers gen_row -= k q_col + c qd_col, node forces, node-force
+    gravity, linear (row, col) and (stiffness, damping, k times the neutral
+    position) of generalised spring-dampers gen_row -= k (q_col - neutral) +
+    c qd_col, node forces, node-force
     flag per body, loads = (cfunc of LOADS_SIG, ints, floats, state): the
     effects' loads, `no_loads` without effects);
     rwork = (rows q_all, qd_all, qdd_p, gen; M; F; Mf; Ff)."""
@@ -846,7 +847,8 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         qd_all[i] = pcoef[k, 1] + pcoef[k, 2] * t
         qddp[i] = pcoef[k, 2]
     for k in range(lin_idx.shape[0]):
-        gen[lin_idx[k, 0]] -= lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
+        gen[lin_idx[k, 0]] -= (lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
+                               - lin_kc[k, 2])
     code = _loads_and_assemble(loads, 1 if solve == SOLVE_HELD else 0, t, q_all, qd_all, gvec, fnodes, fflag, gen,
                                data, work, M, F)
     if code != OK:

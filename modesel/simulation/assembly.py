@@ -66,7 +66,7 @@ class FrameCache:
 class Built:
     """A scene turned into equations and effects, ready to integrate or
     linearise. q0 [m, rad], qd0 [m/s, rad/s]: initial free coordinates;
-    linear: the effects' spring-dampers [(row, column, k, c)]."""
+    linear: the effects' spring-dampers [(row, column, k, c[, neutral])]."""
 
     scene: Scene
     model: object
@@ -79,11 +79,13 @@ class Built:
 
     def __post_init__(self):
         idx = self.eq.index
+        lin = [tuple(term) + (0.0,) * (5 - len(term)) for term in self.linear]   # neutral position default 0
         derived = {"frame_cache": self.frame_cache or FrameCache(self.eq),
-                   "_lin_rows": np.array([idx[r] for r, _, _, _ in self.linear], dtype=int),
-                   "_lin_cols": np.array([idx[c] for _, c, _, _ in self.linear], dtype=int),
-                   "_lin_k": np.array([k for _, _, k, _ in self.linear], float),
-                   "_lin_c": np.array([c for _, _, _, c in self.linear], float)}
+                   "_lin_rows": np.array([idx[r] for r, _, _, _, _ in lin], dtype=int),
+                   "_lin_cols": np.array([idx[c] for _, c, _, _, _ in lin], dtype=int),
+                   "_lin_k": np.array([k for _, _, k, _, _ in lin], float),
+                   "_lin_c": np.array([c for _, _, _, c, _ in lin], float),
+                   "_lin_q0": np.array([q0 for _, _, _, _, q0 in lin], float)}
         for name, value in derived.items():      # set once, at construction
             object.__setattr__(self, name, value)
 
@@ -117,7 +119,7 @@ class Built:
         of all switched-on effects at one state (all coordinates)."""
         gen = np.zeros(self.eq.n_all)
         if len(self._lin_rows):
-            np.subtract.at(gen, self._lin_rows, self._lin_k * q_all[self._lin_cols]
+            np.subtract.at(gen, self._lin_rows, self._lin_k * (q_all[self._lin_cols] - self._lin_q0)
                            + self._lin_c * qd_all[self._lin_cols])
         nodes = {}
         for e in self.acting:

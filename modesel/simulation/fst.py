@@ -14,6 +14,8 @@ What the case's modules become:
   effect (ServoDyn's simple variable-speed law or induction generator,
   GenEff, on/off switching) and the pitch held at PitNeut; without
   ServoDyn the generator torque is zero and the pitch stays at BlPitch.
+  With YawDOF on, ServoDyn's yaw spring and damper about YawNeut (YCMode 0)
+  are the `yaw` effect; without ServoDyn the yaw turns freely, as in OpenFAST.
   With GenDOF off the generator stays for its channels GenTq and GenPwr
   (the law at the fixed speed, as OpenFAST writes them); its torque then
   acts on no free coordinate (GeAz turns at the fixed speed).
@@ -96,6 +98,8 @@ def _check_elastodyn(ed: InputFile):
         raise ed.unsupported("GBoxEff", "gearbox losses")
     if "AzimB1Up" in ed and ed.number("AzimB1Up") != 0.0:
         raise ed.unsupported("AzimB1Up", "an azimuth offset of the outputs")
+    if ed.flag("YawDOF", default=False) and "YawFrctMod" in ed and ed.integer("YawFrctMod") != 0:
+        raise ed.unsupported("YawFrctMod", "yaw-bearing friction")
 
 
 def scene_from_fst(path):
@@ -125,6 +129,8 @@ def scene_from_fst(path):
         servo = _servodyn(f, tmax, yaw_dof=bool(scene.turbine.dofs.get("YawDOF")))
         out_list += InputFile(f.referenced("ServoFile"), "ServoDyn").outlist()
         effects["generator"] = servo["generator"]
+        if servo["yaw"] is not None:
+            effects["yaw"] = servo["yaw"]
         pitch_deg = np.array(servo["pitch_deg"][:scene.turbine.num_blades])
         bl = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
         if not np.allclose(bl, pitch_deg):

@@ -23,7 +23,7 @@ OpenFAST runs them, `fst.scene_from_fst`). TOML format (units as in OpenFAST inp
     gravity = true                   # (see modesel/model/effects/ for every effect)
     geometric_stiffening = true
     damping = true                   # on unless false; { model = "stiffness_proportional" }
-    [effects.wind]                   # wind, pitch, drivetrain, generator, aero, tower_drag
+    [effects.wind]                   # wind, pitch, drivetrain, yaw, generator, aero, tower_drag
     speed = 11.4
     [solver]
     method = "auto"                  # auto | compiled-DOP853 | compiled-RK45 | compiled-Radau | RK45 | DOP853 |

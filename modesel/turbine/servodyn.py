@@ -77,7 +77,8 @@ def electrical_power(torque, w, efficiency):
 
 
 def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
-    """{"generator": options of the `generator` effect or None, "pitch_deg":
+    """{"generator": options of the `generator` effect or None, "yaw": options of
+    the `yaw` effect (with ElastoDyn's YawDOF on) or None, "pitch_deg":
     [PitNeut per blade]} of a ServoDyn file; inputs modesel does not model
     (pitch control or manoeuvres, DLL/Simulink/user control, brakes, yaw
     control, flaps, structural or cable control) raise a ModeselError
@@ -102,9 +103,14 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
                         ("NumTStC", "tower structural control"), ("NumSStC", "substructure structural control")):
         if label in f and f.integer(label) != 0:
             raise f.unsupported(label, what)
-    if yaw_dof:
-        raise f.error("ElastoDyn's YawDOF is on: ServoDyn's yaw spring/damper (YawSpr, YawDamp, YawNeut) "
-                      "is not modelled by modesel; switch YawDOF off", "YawSpr")
+    yaw = None
+    if yaw_dof:     # YCMode 0 (checked above): the spring and damper about YawNeut (`effects.yaw`)
+        if "TYawManS" in f and f.number("TYawManS") < tmax:
+            raise f.unsupported("TYawManS", "override yaw manoeuvre within TMax")
+        yaw = {"stiffness": f.number("YawSpr"), "damping": f.number("YawDamp"), "neutral_deg": f.number("YawNeut")}
+        for label, key in (("YawSpr", "stiffness"), ("YawDamp", "damping")):
+            if yaw[key] < 0:
+                raise f.error(f"must not be negative, got {yaw[key]:g}", label)
     vs = f.integer("VSContrl")
     eff = f.number("GenEff") / 100.0
     if not 0.0 < eff <= 1.0:
@@ -138,4 +144,4 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
     else:
         raise f.unsupported("VSContrl", "only 0 (generator model) and 1 (simple variable speed) are modelled")
     gen.update(switching)
-    return {"generator": gen, "pitch_deg": pit_neut}
+    return {"generator": gen, "pitch_deg": pit_neut, "yaw": yaw}

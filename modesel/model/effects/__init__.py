@@ -4,6 +4,7 @@ behind the `Effect` interface (`base.py`), selected by `select(scene)`.
     wind        steady or time-varying uniform wind with power-law shear (input of aero, tower_drag)
     pitch       prescribed constant collective pitch
     drivetrain  ElastoDyn torsional spring/damper on DrTr, or the second paper's LSS/HSS springs
+    yaw         ServoDyn's yaw spring/damper about the neutral yaw on a free Yaw
     generator   generator torque: constant, locked, or the NREL 5-MW variable-speed law
     damping     structural damping: the deck's modal ratios, or second paper eq. 46-50
     aero        BEM blade loads with structural motion and Pitt-Peters skew (second paper section 3)
@@ -26,6 +27,7 @@ MODULES = {
     "wind": "wind",
     "pitch": "pitch",
     "drivetrain": "drivetrain",
+    "yaw": "yaw",
     "generator": "generator",
     "damping": "damping",
     "aero": "aero",

@@ -137,7 +137,9 @@ class Effect:
         """Add loads at time t [s] and state (q_all, qd_all) (all coordinates)."""
 
     def linear(self, built) -> list:
-        """Linear generalised spring-dampers [(row, column, k, c)]."""
+        """Linear generalised spring-dampers [(row, column, k, c)] or
+        [(row, column, k, c, neutral)]: gen[row] -= k (q[column] - neutral) +
+        c qd[column] (`multibody.compiled.CompiledRHS`)."""
         return []
 
     def load_points(self, built) -> dict:
