@@ -36,6 +36,7 @@ STEADY_11 = CASES / "steady_11p4" / "steady_11p4.fst"
 CHANNELS = ("TTDspFA", "TTDspSS", "TTDspTwst", "OoPDefl1", "OoPDefl2", "OoPDefl3", "IPDefl1", "IPDefl2",
             "IPDefl3", "TipDxc1", "TipDxc2", "TipDxc3", "TipDyc1", "TipDyc2", "TipDyc3", "RotSpeed", "GenSpeed",
             "Azimuth", "BldPitch1", "GenPwr", "GenTq", "RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp",
+            "RtAeroCq", "RtAeroCt", "RtSpeed", "RtTSR", "RtVAvgxh", "RtSkew", "RtArea",
             "RotThrust", "RotTorq", "LSShftTq", "TwrBsMyt", "TwrBsMxt", "RootMyc1", "RootMyc2", "RootMyc3",
             "RootMxc1", "RootMxc2", "RootMxc3", "Q_TFA1", "Q_TFA2", "Q_TSS1", "Q_TSS2", "Q_B1F1", "Q_B1F2",
             "Q_B1E1", "Q_B2F1", "Q_B2F2", "Q_B2E1", "Q_B3F1", "Q_B3F2", "Q_B3E1", "Q_GeAz", "Q_DrTr")
@@ -353,6 +354,11 @@ def test_smoke_simulate_steady_08_outputs(outb_08):
     # since the AeroDyn nodes sit at the aerodynamic centres, BlCrvAC/BlSwpAC; -0.29 %, -0.61 % before)
     assert first.RtAeroFxh == pytest.approx(outb_08.RtAeroFxh.iloc[0], rel=5e-4)
     assert first.RtAeroMxh == pytest.approx(outb_08.RtAeroMxh.iloc[0], rel=5e-4)
+    # AeroDyn's other rotor channels (AeroDyn_IO.f90), from the same inflow and loads
+    for name in ("RtSpeed", "RtTSR", "RtVAvgxh", "RtSkew", "RtArea"):
+        assert first[name] == pytest.approx(outb_08[name].iloc[0], rel=1e-5), name
+    for name in ("RtAeroCt", "RtAeroCq"):
+        assert first[name] == pytest.approx(outb_08[name].iloc[0], rel=5e-4), name
     assert out.attrs["units"]["RtAeroFxh"] == "N" and out.attrs["units"]["GenPwr"] == "kW"
 
 

@@ -55,7 +55,8 @@ CHANNEL_UNITS = {
     "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "GenTq": "kN-m",
     "GenPwr": "kW", "RotPwr": "kW",
     "TwrBsMyt": "kN-m", "TwrBsMxt": "kN-m", "RootMyc<b>": "kN-m", "RootMxc<b>": "kN-m",
-    "RtAeroFxh": "N", "RtAeroMxh": "N-m", "RtAeroPwr": "W", "RtAeroCp": "-",
+    "RtAeroFxh": "N", "RtAeroMxh": "N-m", "RtAeroPwr": "W", "RtAeroCp": "-", "RtAeroCq": "-", "RtAeroCt": "-",
+    "RtSpeed": "rpm", "RtTSR": "-", "RtVAvgxh": "m/s", "RtSkew": "deg", "RtArea": "m^2",
 }
 
 

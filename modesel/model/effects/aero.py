@@ -142,7 +142,8 @@ class BladeAerodynamics(Effect):
     name = "aero"
     loads = True
     kinked = True             # the polars are interpolated linearly in the angle of attack
-    CHANNELS = ("RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp")
+    CHANNELS = ("RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp", "RtAeroCq", "RtAeroCt", "RtSpeed", "RtTSR",
+                "RtVAvgxh", "RtSkew", "RtArea")
     OPTIONS = {
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
@@ -219,7 +220,6 @@ class BladeAerodynamics(Effect):
         self.en = np.empty((B, M, 3))
         self.et = np.empty((B, M, 3))
         self.forces = np.empty((B, len(nodes_span), 6))     # node forces [N], moments [N m]
-        self.rmax = float(np.max((t.hub_radius + span) * np.cos(np.asarray(t.precone[:B], float))[:, None]))
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         frames = built.frames(q_all, qd_all)
@@ -241,7 +241,8 @@ class BladeAerodynamics(Effect):
         for b, name in enumerate(self.names):      # self.forces is overwritten at the next call
             f = node_forces.get(name)
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
-        self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0])}
+        self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0]), "tsr": tsr,
+                     "skew": float(self.skew[0, 0]), "rmax": float(self.r.max())}
 
     def load_points(self, built):
         """Each blade's node loads are T f of the station loads f (module doc 5)."""
@@ -262,7 +263,7 @@ class BladeAerodynamics(Effect):
         o = s.options
         grid, value, slope = s.polars.arrays
         o_const = packer.add([s.num_blades, s.tip_radius, s.hub_radius, s.air_density, o.skew_factor,
-                              o.tolerance, self.rmax])
+                              o.tolerance])
         o_elem = packer.add(buf.chord.ravel())
         T_band, T_first = self.transfer_rows
         L_band, L_first = self.lumping_rows
@@ -311,10 +312,14 @@ class BladeAerodynamics(Effect):
         """AeroDyn's rotor channels (AeroDyn_IO.f90): RtAeroFxh [N] and
         RtAeroMxh [N m], the blade loads' force along and moment about the
         hub x axis (through the apex); RtAeroPwr [W] = RtAeroMxh * rotor
-        speed; RtAeroCp = RtAeroPwr / (1/2 rho RtArea V^3), V the
+        speed; RtAeroCp, RtAeroCq, RtAeroCt (`rotor_power`) with V the
         disk-averaged relative wind along the hub x axis (`V_dot_x`: wind
-        minus blade velocity, averaged over the stations), RtArea = pi rmax^2
-        with rmax the largest station radius."""
+        minus blade velocity, averaged over the stations), also RtVAvgxh
+        [m/s], and RtArea = pi rmax^2 [m^2] with rmax the largest station
+        radius r_local of the deflected rotor (AeroDyn's, also in the
+        coefficients); RtSpeed [rpm] the hub's spin about
+        its x axis; RtTSR [-] and RtSkew [deg] as the BEM used them
+        (`inflow`: the tip-speed ratio of the low-TSR blend, chi_0)."""
         if not self.last:
             return {}
         frames = built.frames(self.last["q"], self.last["qd"])
@@ -326,8 +331,12 @@ class BladeAerodynamics(Effect):
             thrust += f
             torque += m
         omega = float(vec[self.hub, 2] @ R[self.hub][:, 0])
-        power, cp = rotor_power(torque, omega, self.last["v_dot_x"], self.bem.solver.air_density, self.rmax)
-        return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp}
+        v = self.last["v_dot_x"]
+        rmax = self.last["rmax"]
+        power, cp, cq, ct = rotor_power(torque, thrust, omega, v, self.bem.solver.air_density, rmax)
+        return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp, "RtAeroCq": cq,
+                "RtAeroCt": ct, "RtSpeed": omega * 30.0 / np.pi, "RtTSR": self.last["tsr"], "RtVAvgxh": v,
+                "RtSkew": np.degrees(self.last["skew"]), "RtArea": np.pi * rmax ** 2}
 
 
 class StationBem:
@@ -361,15 +370,17 @@ def rotor_loads(forces, pos, R_hub, apex):
 
 
 @njit(cache=True)
-def rotor_power(torque, omega, v, rho, rmax):
-    """(RtAeroPwr [W], RtAeroCp [-]) of the rotor torque [N m] at rotor speed
-    omega [rad/s], with v [m/s] the disk-averaged relative wind along the hub
-    x axis, air density rho [kg/m^3] and RtArea = pi rmax^2 (AeroDyn_IO.f90:
-    Cp = 0 for |v| < CP_MIN_WIND)."""
+def rotor_power(torque, thrust, omega, v, rho, rmax):
+    """(RtAeroPwr [W], RtAeroCp, RtAeroCq, RtAeroCt [-]) of the rotor torque
+    [N m] and thrust [N] at rotor speed omega [rad/s], with v [m/s] the
+    disk-averaged relative wind along the hub x axis, air density rho
+    [kg/m^3] and RtArea = pi rmax^2 (AeroDyn_IO.f90: q = 1/2 rho RtArea v^2,
+    Cp = P / (q v), Cq = Q / (q rmax), Ct = T / q; all 0 for |v| < CP_MIN_WIND)."""
     power = torque * omega
     if abs(v) < CP_MIN_WIND:
-        return power, 0.0
-    return power, power / (0.5 * rho * np.pi * rmax * rmax * v ** 3)
+        return power, 0.0, 0.0, 0.0
+    q = 0.5 * rho * np.pi * rmax * rmax * v * v
+    return power, power / (q * v), torque / (q * rmax), thrust / q
 
 
 def sampled_transfer(stations, at, weights):

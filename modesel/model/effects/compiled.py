@@ -167,7 +167,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     wp = state[0:N_PARAMS]
     tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
                  tip_ratio, vrel)
-    c = floats[o_const:o_const + 7]
+    c = floats[o_const:o_const + 6]
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
     r = r_local.ravel()
@@ -223,15 +223,17 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
                 fnodes[s + i, k] += forces[b, i, k]
         fflag[blades[b]] = 1
     if state[CHANNEL_FLAG] != 0.0:          # the node point sets follow the 7 flags
-        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], c[6], vrel,
-                        state[o_ch:o_ch + 4])
+        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r.max(), vrel, tsr,
+                        skew[0, 0], state[o_ch:o_ch + 11])
 
 
 @njit(cache=True)
-def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rmax, vrel, out):
+def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rmax, vrel, tsr, chi0, out):
     """AeroDyn's rotor channels (effects/aero.py `BladeAerodynamics.channels`)
     of the node loads `forces` (B, N, 6) into out: RtAeroFxh [N], RtAeroMxh
-    [N m], RtAeroPwr [W], RtAeroCp [-]; the node point sets' ints start at p."""
+    [N m], RtAeroPwr [W], RtAeroCp, RtAeroCq, RtAeroCt [-], RtSpeed [rpm],
+    RtTSR [-] (tsr), RtVAvgxh [m/s], RtSkew [deg] (chi0 [rad]), RtArea
+    [m^2]; the node point sets' ints start at p."""
     B, N = forces.shape[0], forces.shape[1]
     pos = np.empty((N, 3))
     vel = np.empty((N, 3))
@@ -249,7 +251,12 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
         v += vrel[k] * R[hub, k, 0]
     out[0] = thrust
     out[1] = torque
-    out[2], out[3] = rotor_power(torque, omega, v, rho, rmax)
+    out[2], out[3], out[4], out[5] = rotor_power(torque, thrust, omega, v, rho, rmax)
+    out[6] = omega * 30.0 / np.pi
+    out[7] = tsr
+    out[8] = v
+    out[9] = chi0 * 180.0 / np.pi
+    out[10] = np.pi * rmax * rmax
 
 
 @njit(cache=True)
