@@ -249,6 +249,10 @@ def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path
     import pandas as pd
     time = pd.read_csv(out, header=[0, 1]).droplevel(1, axis=1).Time.to_numpy()
     np.testing.assert_allclose(time, [0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95, 1.0], atol=1e-9)
+    short = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(fst), "--tmax", "0.4", "--out",
+                            str(tmp_path / "short.csv")], capture_output=True, text=True, cwd=ROOT,
+                           env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert short.returncode == 2 and len(short.stderr.strip().splitlines()) == 1 and "TStart" in short.stderr
     note = next(line for line in run.stdout.splitlines() if "OutLists" in line)
     missing = note.split(": ", 1)[1].split(", ")
     assert "YawBrFxp" in missing and "Wind1VelX" in missing and "RotSpeed" not in missing

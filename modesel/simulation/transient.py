@@ -69,6 +69,9 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         raise ModeselError(f"tmax and dt must be positive finite numbers, got tmax = {tmax:g} s, "
                            f"dt = {dt:g} s", file=scene.path, field="tmax/dt")
     rows = check_time_grid(tmax, dt, file=scene.path)
+    if scene.output_start > tmax:
+        raise ModeselError(f"the outputs start at {scene.output_start:g} s, after tmax = {tmax:g} s: no output "
+                           f"row", file=scene.path, field="TStart")
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True)
     first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once

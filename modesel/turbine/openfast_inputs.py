@@ -120,7 +120,7 @@ class InputFile:
         """The channel names of the file's first OutList ([] without one):
         OpenFAST's list, quoted names (several per line, separated by commas,
         semicolons or blanks) up to the line that starts with END; a leading
-        '-' or 'M' sign prefix is OpenFAST's negation and is dropped only for '-'."""
+        '-' (OpenFAST's negated output) is dropped."""
         if self.outlist_at is None:
             return []
         names = []
