@@ -423,19 +423,28 @@ def test_fallback_without_induction_is_quasi_steady(deck):
 
 def test_robust_over_wide_operating_range(deck):
     """Random (also extreme) inflow, pitch and skew: finite loads, every element
-    with positive inflow converged, inductions within AeroDyn's limits."""
+    with positive inflow converged, inductions within AeroDyn's limits, and
+    the skewed-wake correction applied to the limited induction, AeroDyn's
+    order (BEMT.f90: limitInductionFactors in calculate_Inductions_from_BEMT,
+    then ApplySkewedWakeCorrection, which may leave the limits)."""
     rng = np.random.default_rng(3)
     n = 5000
     span = rng.uniform(0.0, deck.blade.span[-1], n)
     r = 1.5 + span
     vn, vt = rng.uniform(-5, 30, n), rng.uniform(-20, 120, n) * r / 63.0
-    res = nrel_solver(deck, span).solve(r, vn, vt, np.radians(rng.uniform(-20, 95, n)),
-                                        rng.uniform(0, 1.0, n), rng.uniform(0, 2 * np.pi, n))
+    pitch, chi0, psi = np.radians(rng.uniform(-20, 95, n)), rng.uniform(0, 1.0, n), rng.uniform(0, 2 * np.pi, n)
+    solver = nrel_solver(deck, span)
+    res = solver.solve(r, vn, vt, pitch, chi0, psi)
     for name in ("a", "a_prime", "phi", "alpha", "w", "f_n", "f_t", "m"):
         assert np.all(np.isfinite(getattr(res, name))), name
     assert np.all(res.converged[(vn > 0) & (vt > 0)])
-    assert np.all((res.a >= -1) & (res.a <= 1.5) & (res.a_prime >= -1) & (res.a_prime <= 1))
+    assert np.all((res.a_prime >= -1) & (res.a_prime <= 1))
     assert np.any(res.phi < 0)          # propeller-brake / negative-inflow roots occur
+    straight = solver.solve(r, vn, vt, pitch, 0.0, psi)        # the same roots without the skewed wake
+    assert np.all((straight.a >= -1) & (straight.a <= 1.5))
+    np.testing.assert_allclose(res.a, pitt_peters(straight.a, chi0, psi, r / solver.tip_radius, PITT_PETERS_FACTOR),
+                               rtol=1e-12, atol=1e-12)
+    assert np.any(res.a > 1.5)          # the corrected induction may leave the limits, as AeroDyn's
 
 
 def test_solver_timing(deck):

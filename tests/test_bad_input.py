@@ -201,6 +201,10 @@ def _cases():
          ["s.toml", "search.fields.tower_fa.max_count", ">= 1"]),
         ("study min > max", lambda f: study(f, **{"max_count = 2": "min_count = 3\nmax_count = 2"}),
          ["s.toml", "search.fields.tower_fa.max_count", "min > max"]),
+        ("compared channel the scene does not compute", lambda f: [
+            "run", write(f / "s.toml", study_text(reference_csv(f, "r.csv", good.assign(RtAeroFxh=1.0)),
+                                                  **{'channels = ["TTDspFA"]': 'channels = ["TTDspFA", "RtAeroFxh"]'})),
+            "--out", f / "out"], ["s.toml", "compare.channels", "RtAeroFxh", "does not compute"]),
         ("window min > max", lambda f: study(f, **{'kind = "csv"': 'kind = "csv"\nwindow = [3.0, 1.0]'}),
          ["s.toml", "reference.window", "min > max"]),
         ("window outside the scene", lambda f: study(f, **{'kind = "csv"': 'kind = "csv"\nwindow = [5.0, 8.0]'}),

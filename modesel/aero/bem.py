@@ -457,12 +457,12 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
                     else:
                         kp = sigma4 * ct / (F * s * c)
                         ap = kp / (1.0 - kp) if kp != 1.0 else INDUCTION_LIMIT
-                if skew_corr:
-                    a = _pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
                 ok = np.isfinite(a) and np.isfinite(ap)
-                if ok:  # AeroDyn limitInductionFactors
+                if ok:  # AeroDyn limitInductionFactors, then the skewed wake on the limited a (AeroDyn's order)
                     a = min(max(a, A_LIMITS[0]), A_LIMITS[1])
                     ap = min(max(ap, AP_LIMITS[0]), AP_LIMITS[1])
+                    if skew_corr:
+                        a = _pitt_peters(a, skew[i], psi[i], tip_ratio[i], skew_factor)
                 else:
                     a = ap = 0.0
         a *= weight

@@ -139,16 +139,28 @@ class Objective:
         return options
 
     def warm_up(self) -> None:
-        """Simulate a few steps of the first scene with its default set, untimed:
+        """Simulate a few steps of each scene with its default set, untimed:
         the first simulation in a process pays one-off costs (imports, JIT
-        compilation) that would otherwise inflate the first trial's cost."""
-        spec = self.study.scenes[0]
-        scene = self.scenes[spec.name]
-        dt = spec.dt or getattr(scene, "dt", None)
-        try:
-            self.engine.simulate(scene, None, tmax=5 * dt if dt else None, dt=dt)
-        except ModeselError:
-            pass
+        compilation) that would otherwise inflate the first trial's cost.
+        A compared channel that a scene's simulation does not compute (e.g.
+        a reaction force modesel has no coordinate for) fails every trial:
+        it is a one-line error here, before the search starts. Other errors
+        are left to the trials, which record them."""
+        compared = list(self.study.compare.channels)
+        for spec in self.study.scenes:
+            scene = self.scenes[spec.name]
+            dt = spec.dt or getattr(scene, "dt", None)
+            try:
+                result = self.engine.simulate(scene, None, tmax=5 * dt if dt else None, dt=dt)
+            except ModeselError:
+                continue
+            columns = getattr(result, "columns", None) or {}
+            missing = [ch for ch in compared if columns and ch not in columns]
+            if missing:
+                raise ModeselError(
+                    f"scene '{spec.name}' does not compute the compared channel{'s' if len(missing) > 1 else ''} "
+                    f"{', '.join(missing)}; it computes: {', '.join(c for c in columns if c != 'Time')}",
+                    file=str(self.study.path), field="compare.channels")
 
     def __call__(self, trial):
         try:
