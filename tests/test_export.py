@@ -397,6 +397,28 @@ def test_openfast_case_is_complete_and_names_the_new_elastodyn(tmp_path, capsys)
     np.testing.assert_allclose(reader.fst_vt["ElastoDynTower"]["TwFAM1Sh"], clamped.coefficients, rtol=1e-6)
 
 
+def test_openfast_case_with_what_modesel_does_not_simulate(tmp_path, capsys):
+    """Only the case's ElastoDyn part is read: a case with turbulent wind
+    (InflowWind WindType 3, which `modesel simulate` refuses) is exported for
+    OpenFAST unchanged, its InflowWind file copied as it is."""
+    import shutil
+    src = tmp_path / "src"
+    shutil.copytree(STEADY.parent.parent, src)
+    iw = src / "steady_11p4" / "steady_11p4_InflowWind.dat"
+    text = iw.read_text()
+    line = next(ln for ln in text.splitlines() if "WindType" in ln.split()[1:2])
+    iw.write_text(text.replace(line, "          3   WindType       - turbulent full-field wind (edited)"))
+    fst = src / "steady_11p4" / "steady_11p4.fst"
+    from modesel.simulation.api import load_scene
+    with pytest.raises(ModeselError, match="WindType"):
+        load_scene(fst)
+    ms = write_modeset(tmp_path / "ms.json", {"tower_fa": {"family": "clamped", "count": 1}})
+    assert main(["export", ms, "--case", str(fst), "--openfast", str(tmp_path / "o")]) == 0
+    assert "OpenFAST case written" in capsys.readouterr().out
+    copied = next((tmp_path / "o").rglob("steady_11p4_InflowWind.dat"))
+    assert "3   WindType" in copied.read_text()
+
+
 @pytest.mark.parametrize("fields, reason", [
     ({"tower_fa": {"family": "clamped", "count": 3}}, "tower_fa=clamped:3 (ElastoDyn has at most 2 tower_fa modes)"),
     ({"blade_edge": {"family": "fem", "count": 2}}, "blade_edge=fem:2 (ElastoDyn has at most 1 blade_edge mode)"),

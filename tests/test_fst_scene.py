@@ -269,6 +269,11 @@ def test_tmax_between_steps_ends_where_openfast_ends(tmp_path):
     assert scene.tmax == pytest.approx(0.5125, abs=1e-12) and scene.dt == pytest.approx(0.00625)
     edit(fst, "TMax", "0.5")
     assert load_scene(fst).tmax == 0.5
+    edit(fst, "TMax", "0")            # a linearisation case: read (modesel linearize), simulated with tmax given
+    scene = load_scene(fst)
+    with pytest.raises(ModeselError, match="give --tmax"):
+        simulate(scene)
+    assert simulate(scene, tmax=0.1).outputs.Time.iloc[-1] == pytest.approx(0.1)
 
 
 def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):

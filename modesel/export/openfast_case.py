@@ -12,7 +12,9 @@ ElastoDyn file (and, with `tmax`, a new TMax); nothing else changes.
 
 The shapes are evaluated as `modesel simulate` evaluates them for this case:
 on the case's turbine, blade shapes at the case's initial rotor speed
-(RotSpeed), so that OpenFAST and modesel run the same shapes.
+(RotSpeed), so that OpenFAST and modesel run the same shapes. Only the
+case's ElastoDyn part is read: modules or options modesel does not simulate
+(e.g. turbulent wind, a controller DLL) are copied for OpenFAST unchanged.
 
 A set ElastoDyn cannot hold (more than 2 tower fore-aft, 2 side-side or 2
 flap modes, more than 1 edge mode, any tower torsion) is refused with one
@@ -94,8 +96,7 @@ def export_openfast_case(modeset, case, outdir, *, tmax: float | None = None,
     the case's files, or a case that is not an OpenFAST main file."""
     from modesel.export.common import field_shapes
     from modesel.export.elastodyn_writer import export_elastodyn
-    from modesel.simulation.api import load_scene
-    from modesel.simulation.fst import is_fst
+    from modesel.simulation.fst import is_fst, scene_from_elastodyn
 
     case, outdir = Path(case), Path(outdir)
     if not case.is_file():
@@ -108,7 +109,9 @@ def export_openfast_case(modeset, case, outdir, *, tmax: float | None = None,
                            field="fields")
     if tmax is not None and not (np.isfinite(tmax) and tmax > 0):
         raise ModeselError(f"TMax must be > 0 s, got {tmax:g}", field="--tmax")
-    scene = load_scene(case)
+    # the ElastoDyn part only: OpenFAST runs the rest of the case (wind, control, aero) as it is,
+    # also what modesel itself cannot simulate (e.g. turbulent wind)
+    scene = scene_from_elastodyn(case)
     from modesel.vocabulary import ROTOR_AZIMUTH
     omega = scene.constant_speed.get(ROTOR_AZIMUTH, scene.initial.get("RotSpeed", 0.0))  # as `build`
     rpm = float(omega) * 30.0 / np.pi

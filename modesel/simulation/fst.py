@@ -109,8 +109,8 @@ def scene_from_fst(path):
     f = InputFile(path, "OpenFAST main")
     _check_main(f)
     tmax = f.number("TMax")
-    if tmax <= 0:
-        raise f.error(f"must be > 0, got {tmax:g}", "TMax")
+    if tmax < 0:       # 0: a linearisation case (modesel linearize reads it; simulate needs --tmax)
+        raise f.error(f"must be >= 0, got {tmax:g}", "TMax")
     dt_out = f.number("DT_Out", default=f.number("DT"))
     if dt_out <= 0:
         raise f.error(f"must be > 0, got {dt_out:g}", "DT_Out")

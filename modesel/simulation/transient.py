@@ -67,7 +67,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     dt = scene.dt if dt is None else float(dt)
     if not (tmax > 0 and dt > 0 and np.isfinite(tmax) and np.isfinite(dt)):
         raise ModeselError(f"tmax and dt must be positive finite numbers, got tmax = {tmax:g} s, "
-                           f"dt = {dt:g} s", file=scene.path, field="tmax/dt")
+                           f"dt = {dt:g} s (give --tmax / --dt)", file=scene.path, field="tmax/dt")
     rows = check_time_grid(tmax, dt, file=scene.path)
     if scene.output_start > tmax:
         raise ModeselError(f"the outputs start at {scene.output_start:g} s, after tmax = {tmax:g} s: no output "
