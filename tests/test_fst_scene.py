@@ -276,6 +276,23 @@ def test_tmax_between_steps_ends_where_openfast_ends(tmp_path):
     assert simulate(scene, tmax=0.1).outputs.Time.iloc[-1] == pytest.approx(0.1)
 
 
+def test_outlist_aliases_are_written_under_the_requested_names(tmp_path):
+    """OpenFAST writes a channel under the name the OutList gives it, also
+    ElastoDyn's other names of one output (LSSTipVxa for RotSpeed, YawBrTDxt
+    for TTDspFA, RootMOoP1 for RootMyc1, LSShftFxa for RotThrust; matched
+    without case): so does modesel, with the unit of the channel."""
+    fst = copy_case(tmp_path)
+    ed = fst.parent / "steady_08_ElastoDyn.dat"
+    ed.write_text(ed.read_text().replace('"YawBrTDxp"', '"LSSTipVxa"\n"YawBrTDxt, RootMOoP1"\n"lsshftfxa"\n"YawBrTDxp"'))
+    result = simulate(load_scene(fst), tmax=0.2)
+    out = result.outputs
+    for alias, name in (("LSSTipVxa", "RotSpeed"), ("YawBrTDxt", "TTDspFA"), ("RootMOoP1", "RootMyc1"),
+                        ("lsshftfxa", "RotThrust")):
+        np.testing.assert_array_equal(out[alias], out[name])
+        assert result.units[alias] == result.units[name]
+    assert "YawBrTDxp" not in out          # not an alias of a computed channel
+
+
 def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):
     """A tower-top mass beyond the buckling load: refused in one line (exit 2)
     naming the way to simulate it anyway; with --no-stability-check it runs

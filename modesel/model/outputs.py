@@ -60,8 +60,53 @@ CHANNEL_UNITS = {
 }
 
 
+#: ElastoDyn's other names of the channels modesel computes: the entries of
+#: its output list (ElastoDyn.f90 ValidParamAry) that share one output with
+#: the key; OpenFAST writes a channel under the name the OutList gives it
+CHANNEL_ALIASES = {
+    "Azimuth": ("LSSTipP", "LSSTipPxa", "LSSTipPxs"), "RotSpeed": ("LSSTipV", "LSSTipVxa", "LSSTipVxs"),
+    "GenSpeed": ("HSShftV",), "NacYaw": ("NacYawP", "YawPos", "YawPzn", "YawPzp"),
+    "TTDspFA": ("YawBrTDxt",), "TTDspSS": ("YawBrTDyt",), "TTDspTwst": ("YawBrRDzt",),
+    "OoPDefl<b>": ("TipDxc<b>",), "IPDefl<b>": ("TipDyc<b>",), "TipDzc<b>": ("TipDzb<b>",),
+    "BldPitch<b>": ("BlPitch<b>", "PtchPMzb<b>", "PtchPMzc<b>"),
+    "RootMxc<b>": ("RootMIP<b>",), "RootMyc<b>": ("RootMOoP<b>",),
+    "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
+    "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
+    "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
+}
+_ALIAS_OF = {}
+for _name, _aliases in CHANNEL_ALIASES.items():
+    for _b in ("1", "2", "3") if "<b>" in _name else ("",):
+        for _alias in _aliases:
+            _ALIAS_OF[_alias.replace("<b>", _b).upper()] = _name.replace("<b>", _b)
+
+
+def canonical_channel(name: str) -> str:
+    """modesel's name of channel `name` (itself, or the channel an ElastoDyn alias names)."""
+    return _ALIAS_OF.get(name.upper(), name)
+
+
+def with_aliases(columns: dict, requested) -> dict:
+    """`columns` plus, for each name in `requested` (an OpenFAST case's
+    OutList) that is not a column but an ElastoDyn alias of one (matched
+    without case, as ElastoDyn matches), that column again under the
+    requested name."""
+    have = {c.upper(): c for c in columns}
+    out = dict(columns)
+    for name in requested:
+        if name.upper() in have:
+            continue
+        source = have.get(canonical_channel(name).upper())
+        if source is not None:
+            out[name] = columns[source]
+            have[name.upper()] = name
+    return out
+
+
 def channel_unit(name: str) -> str | None:
-    """Unit of a simulation output channel (OpenFAST's), None if unknown."""
+    """Unit of a simulation output channel (OpenFAST's, also under an
+    ElastoDyn alias), None if unknown."""
+    name = canonical_channel(name)
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
             try:

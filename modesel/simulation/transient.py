@@ -8,7 +8,7 @@ import numpy as np
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
-from modesel.model.outputs import channel_unit, channels
+from modesel.model.outputs import canonical_channel, channel_unit, channels, with_aliases
 from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
@@ -108,11 +108,13 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
-    columns = channels(built, integ, None if wanted is None else set(wanted))
+    columns = channels(built, integ, None if wanted is None else set(wanted) | {canonical_channel(c) for c in wanted})
     start = scene.output_start
     if start > 0.0:     # an OpenFAST case's TStart: simulated from 0, output from TStart on
         keep = columns["Time"] >= start - 1e-9 * dt
         columns = {c: v[keep] for c, v in columns.items()}
+    if scene.out_list or wanted:    # an OpenFAST case's OutList, a search's channels: ElastoDyn's other names
+        columns = with_aliases(columns, list(scene.out_list) + list(wanted or ()))
     units = {c: u for c in columns if (u := channel_unit(c)) is not None}
     return SimulationResult(columns, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs, units)
 
