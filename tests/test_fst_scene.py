@@ -293,6 +293,32 @@ def test_outlist_aliases_are_written_under_the_requested_names(tmp_path):
     assert "YawBrTDxp" not in out          # not an alias of a computed channel
 
 
+def test_inflowwind_output_points(tmp_path, outb_08):
+    """InflowWind's Wind<k>VelX/Y/Z: the undisturbed wind at its NWindVel
+    points (WindVxiList, WindVyiList, WindVziList): steady_08's hub-height
+    point equals OpenFAST's output; a second point 30 m higher and 20 m to
+    the side follows the power law of the case (PLexp) and has no y or z
+    component. (Against OpenFAST with a wind step and shear 0.2: README,
+    within 2.4e-5 m/s.)"""
+    out = simulate(load_scene(STEADY_08), tmax=0.2).outputs
+    for c in ("Wind1VelX", "Wind1VelY", "Wind1VelZ"):
+        np.testing.assert_allclose(out[c], outb_08[c].iloc[0], atol=1e-6, err_msg=c)
+    fst = copy_case(tmp_path)
+    iw = fst.parent / "steady_08_InflowWind.dat"
+    for label, value in (("NWindVel", "2"), ("WindVxiList", '"0, 0"'), ("WindVyiList", '"0, 20"'),
+                         ("WindVziList", '"90, 120"'), ("PLexp", "0.2")):
+        edit(iw, label, value)
+    scene = load_scene(fst)
+    assert scene.wind_points == ((0.0, 0.0, 90.0), (0.0, 20.0, 120.0))
+    wind = scene.effects["wind"]
+    assert wind["shear"] == 0.2
+    result = simulate(scene, tmax=0.2, channels=["TTDspFA", "Wind2VelX", "Wind2VelY"])
+    expected = wind["speed"] * (120.0 / wind["reference_height"]) ** wind["shear"]
+    np.testing.assert_allclose(result.outputs.Wind2VelX, expected, rtol=1e-12)
+    np.testing.assert_allclose(result.outputs.Wind2VelY, 0.0, atol=1e-12)
+    assert result.units["Wind2VelX"] == "m/s"
+
+
 def test_cli_no_stability_check_simulates_what_the_check_refuses(tmp_path):
     """A tower-top mass beyond the buckling load: refused in one line (exit 2)
     naming the way to simulate it anyway; with --no-stability-check it runs

@@ -81,6 +81,23 @@ for _name, _aliases in CHANNEL_ALIASES.items():
             _ALIAS_OF[_alias.replace("<b>", _b).upper()] = _name.replace("<b>", _b)
 
 
+def wind_channels(built, times, points, wanted=None) -> dict:
+    """InflowWind's Wind<k>VelX/Y/Z [m/s]: the undisturbed wind of the scene's
+    `wind` effect at the inertial points (x, y, z) [m] (k = 1, 2, ...) at each
+    of `times` [s]; {} without the effect. wanted: None (all) or names."""
+    from modesel.aero.wind import wind_velocity
+    effect = built.effect("wind")
+    names = [f"Wind{k}Vel{c}" for k in range(1, len(points) + 1) for c in "XYZ"]
+    if effect is None or (wanted is not None and not set(names) & set(wanted)):
+        return {}
+    out = np.empty((len(times), len(points), 3))
+    for i, t in enumerate(times):
+        p = effect.field.params(float(t))
+        for k, (x, y, z) in enumerate(points):
+            out[i, k] = wind_velocity(p, float(x), float(y), float(z))
+    return {name: out[:, j // 3, j % 3].copy() for j, name in enumerate(names)}
+
+
 def canonical_channel(name: str) -> str:
     """modesel's name of channel `name` (itself, or the channel an ElastoDyn alias names)."""
     return _ALIAS_OF.get(name.upper(), name)
@@ -107,6 +124,8 @@ def channel_unit(name: str) -> str | None:
     """Unit of a simulation output channel (OpenFAST's, also under an
     ElastoDyn alias), None if unknown."""
     name = canonical_channel(name)
+    if re.fullmatch(r"Wind[1-9]Vel[XYZ]", name):
+        return "m/s"
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
             try:

@@ -47,6 +47,7 @@ InflowWind, AeroDyn and ServoDyn readers.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -156,7 +157,9 @@ def scene_from_fst(path):
         if f.integer("CompInflow") == 1:
             from modesel.turbine.inflowwind import read_inflowwind
             effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)
-            out_list += InputFile(f.referenced("InflowFile"), "InflowWind").outlist()
+            inflow = InputFile(f.referenced("InflowFile"), "InflowWind")
+            out_list += inflow.outlist()
+            scene.wind_points = _wind_points(inflow)
         else:
             effects["wind"] = {"speed": 0.0}
     validate_effects(effects, str(path), path.parent)
@@ -165,6 +168,26 @@ def scene_from_fst(path):
     scene.notes = tuple(notes)
     scene.out_list = tuple(dict.fromkeys(out_list))
     return scene
+
+
+def _wind_points(f: InputFile) -> tuple:
+    """InflowWind's output points ((x, y, z) [m], NWindVel of them; inertial
+    frame, z above the ground) for the channels Wind<k>VelX/Y/Z."""
+    n = f.integer("NWindVel", default=0)
+    if not 0 <= n <= 9:
+        raise f.error(f"must be 0 to 9, got {n}", "NWindVel")
+    if n == 0:
+        return ()
+    lists = []
+    for label in ("WindVxiList", "WindVyiList", "WindVziList"):
+        try:
+            values = [float(v) for v in re.split(r"[,;\s]+", f.text(label).replace('"', "").strip()) if v]
+        except ValueError:
+            raise f.error("expected a list of numbers", label) from None
+        if len(values) < n:
+            raise f.error(f"needs NWindVel = {n} values, got {len(values)}", label)
+        lists.append(values[:n])
+    return tuple(zip(*lists))
 
 
 def _end_time(f: InputFile, tmax: float) -> float:

@@ -97,6 +97,9 @@ class Scene:
     #: output time (the case's TStart), earlier rows are simulated but not output
     out_list: tuple = ()
     output_start: float = 0.0
+    #: an OpenFAST case's InflowWind output points (WindVxiList, WindVyiList,
+    #: WindVziList) [m]: channels Wind<k>VelX/Y/Z [m/s] of the undisturbed wind there
+    wind_points: tuple = ()
 
     @property
     def fields(self) -> tuple:
