@@ -460,3 +460,17 @@ def test_reference_reader_fuzz_bytes(raw):
         path = Path(folder) / "ref.csv"
         path.write_bytes(raw)
         _only_modesel_errors(lambda: load_reference(path, "csv", ["TTDspFA"]))
+
+
+def test_a_compared_channel_under_an_elastodyn_alias_is_not_refused(tmp_path, capsys):
+    """The warm-up's check of the compared channels (above: "compared channel
+    the scene does not compute") takes ElastoDyn's other names of a computed
+    channel as computed: LSSTipVxa is RotSpeed, which the trials then write
+    under that name."""
+    t = np.arange(0.0, 2.0001, 0.05)
+    ref = reference_csv(tmp_path, "r.csv", pd.DataFrame({"Time": t, "LSSTipVxa": 10.0 + np.sin(t)}))
+    study = write(tmp_path / "s.toml", study_text(ref, **{'channels = ["TTDspFA"]': 'channels = ["LSSTipVxa"]',
+                                                           "n_trials = 2": "n_trials = 1"}))
+    assert main(["run", study, "--out", str(tmp_path / "out"), "--quiet"]) == 0, capsys.readouterr().err
+    trials = pd.read_csv(tmp_path / "out" / "trials.csv", header=[0, 1]).droplevel(1, axis=1)
+    assert len(trials) == 1 and np.isfinite(trials.error_pct_LSSTipVxa.iloc[0])

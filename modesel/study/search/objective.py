@@ -146,6 +146,7 @@ class Objective:
         a reaction force modesel has no coordinate for) fails every trial:
         it is a one-line error here, before the search starts. Other errors
         are left to the trials, which record them."""
+        from modesel.model.outputs import canonical_channel
         compared = list(self.study.compare.channels)
         for spec in self.study.scenes:
             scene = self.scenes[spec.name]
@@ -155,7 +156,8 @@ class Objective:
             except ModeselError:
                 continue
             columns = getattr(result, "columns", None) or {}
-            missing = [ch for ch in compared if columns and ch not in columns]
+            # a trial asks for its channels by name, also by one of ElastoDyn's other names
+            missing = [ch for ch in compared if columns and ch not in columns and canonical_channel(ch) not in columns]
             if missing:
                 raise ModeselError(
                     f"scene '{spec.name}' does not compute the compared channel{'s' if len(missing) > 1 else ''} "
