@@ -86,6 +86,9 @@ def wind_channels(built, times, points, wanted=None) -> dict:
     `wind` effect at the inertial points (x, y, z) [m] (k = 1, 2, ...) at each
     of `times` [s]; {} without the effect. wanted: None (all) or names."""
     from modesel.aero.wind import wind_velocity
+    # the compiled function's Python source, evaluated by the interpreter: a few
+    # hundred calls cost less than loading its compiled specialisation for Python
+    velocity = getattr(wind_velocity, "py_func", wind_velocity)
     effect = built.effect("wind")
     names = [f"Wind{k}Vel{c}" for k in range(1, len(points) + 1) for c in "XYZ"]
     if effect is None or (wanted is not None and not set(names) & set(wanted)):
@@ -94,7 +97,7 @@ def wind_channels(built, times, points, wanted=None) -> dict:
     for i, t in enumerate(times):
         p = effect.field.params(float(t))
         for k, (x, y, z) in enumerate(points):
-            out[i, k] = wind_velocity(p, float(x), float(y), float(z))
+            out[i, k] = velocity(p, float(x), float(y), float(z))
     return {name: out[:, j // 3, j % 3].copy() for j, name in enumerate(names)}
 
 
