@@ -83,3 +83,18 @@ def test_truncated_binary_output(tmp_path):
     path.write_bytes(OUTB.read_bytes()[:200])
     with pytest.raises(ModeselError, match="cut.outb"):
         read_openfast_output(path)
+
+
+def test_binary_output_written_over_a_longer_one(tmp_path):
+    """OpenFAST 5.0 writes an .outb over an existing file without shortening it:
+    a 10-s run in the folder of a 30-s one left 91296 bytes, of which its header
+    promised 33808 (the rest the old run's tail). The file is read as the header
+    says, the same as without the tail; fewer bytes than promised stay an error."""
+    clean = read_openfast_output(OUTB)
+    path = tmp_path / "rerun.outb"
+    path.write_bytes(OUTB.read_bytes() + bytes(range(256)) * 40)
+    stale = read_openfast_output(path)
+    assert stale.shape == clean.shape and np.array_equal(stale.to_numpy(), clean.to_numpy())
+    path.write_bytes(OUTB.read_bytes()[:-1])
+    with pytest.raises(ModeselError, match="rerun.outb.*truncated or corrupt"):
+        read_openfast_output(path)

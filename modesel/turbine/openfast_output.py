@@ -31,7 +31,12 @@ MAX_NAME_LENGTH = 1024          # sanity bound on a channel name's length [chara
 def check_binary_header(path: Path) -> tuple[int, int]:
     """Validate an .outb header against the file size before anything is
     allocated; returns (channels, time steps). A file whose header promises
-    more (or fewer) bytes than it holds is a one-line user error."""
+    more bytes than it holds is a one-line user error. Bytes beyond what
+    the header promises are not read: OpenFAST 5.0 writes its .outb over an
+    existing file without shortening it, so a run shorter than the one
+    before leaves the old file's tail after its own data (seen when a
+    10-s run replaced a 30-s one; openfast_io reads such a file as the
+    header says)."""
     size = path.stat().st_size
     with open(path, "rb") as fh:
         head = fh.read(2 + 2 + 4 + 4)
@@ -69,7 +74,7 @@ def check_binary_header(path: Path) -> tuple[int, int]:
     if file_id == _WITH_TIME:
         expected += 4 * steps
     expected += steps * channels * (8 if file_id == _NO_COMPRESS else 2)
-    if expected != size:
+    if expected > size:
         raise ModeselError(f"OpenFAST binary output is {size} bytes but its header ({channels} channels, "
                            f"{steps} time steps) needs {expected} bytes: truncated or corrupt", file=str(path))
     return channels, steps
