@@ -14,7 +14,10 @@ DOF names are ElastoDyn's (OpenFAST writes a coordinate as channel Q_<name>):
   twist), HSSTw (high-speed shaft twist referred to the LSS);
 - rigid body (no restoring stiffness of their own): GeAz (generator azimuth,
   LSS side), Yaw, PtfmSurge, PtfmPitch;
-- reaction (always fixed at 0, model/template.py): TwrBsRyt, RootRyc<b>.
+- reaction (always fixed at 0, model/template.py): rotations TwrBsR<a>t,
+  YawBrR<a>p, RootR<a>c<b> and translations TwrBsT<a>t, YawBrT<a>p,
+  RootT<a>c<b> (a = x, y, z) at the tower base, the yaw bearing and blade
+  b's root, and LSShftTxa along the shaft.
 
 Units of a coordinate: m for bending modes (tip-normalised shapes) and
 PtfmSurge, rad for the others; its rate per s.
@@ -55,7 +58,17 @@ ROTOR_AZIMUTH = "GeAz"
 TOWER_BASE_REACTION = "TwrBsRyt"
 TOWER_BASE_REACTION_X = "TwrBsRxt"
 SHAFT_THRUST_REACTION = "LSShftTxa"
-REACTIONS = (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, SHAFT_THRUST_REACTION)
+#: ElastoDyn's tower-base and yaw-bearing loads (kN, kN m), each the
+#: generalised force of a reaction coordinate: a translation (T) along or a
+#: rotation (R) about an axis of the tower-base frame t (ground) or of the
+#: tower-top frame p (turned by the tower's deflection, not by the yaw)
+TOWER_LOAD_REACTIONS = {
+    "TwrBsFxt": "TwrBsTxt", "TwrBsFyt": "TwrBsTyt", "TwrBsFzt": "TwrBsTzt",
+    "TwrBsMxt": TOWER_BASE_REACTION_X, "TwrBsMyt": TOWER_BASE_REACTION, "TwrBsMzt": "TwrBsRzt",
+    "YawBrFxp": "YawBrTxp", "YawBrFyp": "YawBrTyp", "YawBrFzp": "YawBrTzp",
+    "YawBrMxp": "YawBrRxp", "YawBrMyp": "YawBrRyp", "YawBrMzp": "YawBrRzp"}
+REACTIONS = (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, SHAFT_THRUST_REACTION) + tuple(
+    c for c in TOWER_LOAD_REACTIONS.values() if c not in (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X))
 MULTIBLADE_PARTS = ("coll", "cos", "sin")
 #: rigid coordinates measured in m (the others in rad)
 TRANSLATIONS = ("PtfmSurge",)
@@ -77,7 +90,7 @@ class Dof(NamedTuple):
 _TOWER = re.compile(r"(TFA|TSS|TTor)([1-9]\d*)")
 _BLADE = re.compile(r"B([1-9]\d*)([FE])([1-9]\d*)")
 _MULTIBLADE = re.compile(r"([FE])([1-9]\d*)_(coll|cos|sin)")
-_ROOT_REACTION = re.compile(r"RootR[xy]c([1-9]\d*)")
+_ROOT_REACTION = re.compile(r"Root[RT][xyz]c([1-9]\d*)")
 _FIELD_OF_PREFIX = {p: f for f, p in FIELD_PREFIX.items()}
 
 
@@ -129,11 +142,13 @@ def multiblade_name(dof_type: str, part: str) -> str:
     return f"{dof_type}_{part}"
 
 
-def root_reaction(blade: int, axis: str = "y") -> str:
-    """Name of blade `blade`'s root reaction coordinate about the coned `axis` (x or y)."""
-    if axis not in ("x", "y"):
-        raise ValueError(f"root reaction axis must be x or y, got {axis!r}")
-    return f"RootR{axis}c{blade}"
+def root_reaction(blade: int, axis: str = "y", kind: str = "R") -> str:
+    """Name of blade `blade`'s root reaction coordinate: a rotation (kind
+    "R", the moment RootM<axis>c<b>) about or a translation (kind "T", the
+    force RootF<axis>c<b>) along the coned `axis` (x, y or z)."""
+    if axis not in ("x", "y", "z") or kind not in ("R", "T"):
+        raise ValueError(f"root reaction axis must be x, y or z and kind R or T, got {axis!r}, {kind!r}")
+    return f"Root{kind}{axis}c{blade}"
 
 
 def is_blade_body(body: str) -> bool:

@@ -30,6 +30,13 @@ tolerances:
   YawNeut 0, YCMode 0; the `yaw` effect; refused before): NRMSE over the
   40 s <= 2 % on NacYaw, TTDspSS, TTDspFA, OoPDefl1, RotSpeed, and the
   means of the last 20 s as above;
+- ElastoDyn's reaction loads (forces and moments at the tower base, the yaw
+  bearing in the tower-top frame p, the blade roots in the coned frame c and
+  the pitched frame b): NRMSE over the run <= 1 % on parked_storm (pitch
+  90 deg: RootMxb1 = -RootMyc1), fixed_pitch_15 (slow, pitch 10 deg) and
+  yaw_bearing_mass (the parked release with a 30-t yaw-bearing mass, which
+  ElastoDyn counts below the bearing: lumped into the nacelle, YawBrFzp
+  would be 8.6 % heavier);
 - with the OpenFAST executable present (slow): the committed decks give the
   committed reference again.
 """
@@ -159,6 +166,31 @@ def test_yaw_release_matches_openfast():
     print(f"\nyaw_release: {text}")
     assert all(abs(v) <= MEAN_TOLERANCES[c] for c, v in means.items()), text
     assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
+
+
+#: ElastoDyn's reaction loads each case's reduced reference holds besides its other channels
+LOADS = ("RootMxb1", "RootMyb1", "RootFxc1", "RootFyc1", "RootMzc1", "TwrBsFxt", "TwrBsFyt", "TwrBsMzt",
+         "YawBrFxp", "YawBrFyp", "YawBrMxp", "YawBrMyp")
+REACTION_CASES = {"parked_storm": LOADS, "fixed_pitch_15": LOADS,
+                  "yaw_bearing_mass": ("TwrBsFxt", "TwrBsFyt", "TwrBsFzt", "TwrBsMxt", "TwrBsMyt", "TwrBsMzt",
+                                       "YawBrFxp", "YawBrFyp", "YawBrFzp", "YawBrMxp", "YawBrMyp", "YawBrMzp")}
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow if c == "fixed_pitch_15" else ())
+                                  for c in REACTION_CASES])
+def test_reaction_loads_match_openfast(case):
+    out, ref = run(case)
+    errs = {c: nrmse(out, ref, c) for c in REACTION_CASES[case]}
+    text = ", ".join(f"{c} {v:.3%}" for c, v in errs.items())
+    print(f"\n{case} NRMSE: {text}")
+    assert all(v <= RELEASE_TOLERANCE for v in errs.values()), text
+    units = out.attrs["units"]
+    assert all(units[c] == ("kN-m" if "M" in c[4:6] else "kN") for c in REACTION_CASES[case])
+    if case == "parked_storm":      # feathered: the pitched frame b is the coned frame turned by 90 deg
+        assert np.allclose(out.RootMxb1, -out.RootMyc1) and np.allclose(out.RootMyb1, out.RootMxc1)
+    if case == "yaw_bearing_mass":  # the bearing's mass (30 t) weighs on the tower base, not on the bearing
+        weight = {c: ref[c].mean() / out[c].mean() - 1 for c in ("TwrBsFzt", "YawBrFzp")}
+        assert all(abs(v) < 1e-3 for v in weight.values()), weight
 
 
 def openfast_executable():

@@ -26,6 +26,10 @@ def test_kinds_units_and_fields():
     assert [parse_dof(n).kind for n in ("DrTr", "HSSTw", "GeAz", "PtfmSurge", "TwrBsRyt", "RootRyc3")] == \
         ["drivetrain", "drivetrain", "rigid", "rigid", "reaction", "reaction"]
     assert parse_dof("RootRyc3").blade == 3
+    # the reaction coordinates of the forces and remaining moments (model/template.py reaction_forces)
+    for name in ("TwrBsTxt", "TwrBsRzt", "YawBrTyp", "YawBrRxp", "YawBrRzp", "RootTzc2", "RootRzc2"):
+        assert parse_dof(name).kind == "reaction", name
+    assert parse_dof("RootTxc2").blade == 2 and parse_dof("YawBrTzp").blade is None
     assert [dof_unit(n) for n in ("TFA1", "TTor2", "B3E1", "F1_sin", "PtfmSurge", "PtfmPitch", "DrTr")] == \
         ["m", "rad", "m", "m", "m", "rad", "rad"]
     assert dof_unit("TTor1", rate=True) == "rad/s" and dof_unit("B1F2", rate=True) == "m/s"

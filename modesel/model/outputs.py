@@ -10,12 +10,15 @@ Channels (units as OpenFAST writes them):
   positive along +y); TTDspTwst [deg]; TipDxc<b> = OoPDefl<b>, TipDyc<b> =
   IPDefl<b>, TipDzc<b> [m] blade-tip deflection in the coned frame and
   TipDxb<b>, TipDyb<b> [m] in the pitched blade frame (`tip_deflections`:
-  twisted shapes, as ElastoDyn); BldPitch<b> [deg]; PtfmSurge [m]; PtfmPitch [deg];
+  twisted shapes, as ElastoDyn); YawBrTDxp, YawBrTDyp, YawBrTDzp [m] the
+  tower-top deflection in the tower-top frame p and TipRDzc<b> = TwstDefl<b>
+  [deg] = 0 (`tower_top_deflection`); BldPitch<b> [deg]; PtfmSurge [m]; PtfmPitch [deg];
   NacYaw [deg] (when those DOFs exist).
 - with the ElastoDyn drivetrain spring (DrTr free): RotTorq = LSShftTq
   [kN m], RotPwr [kW], HSShftTq [kN m] (`shaft_torque`).
 - from effects (only when switched on): RtAeroFxh [N], RtAeroMxh [N m],
-  RtAeroPwr [W], RtAeroCp [-] (aero: AeroDyn's rotor loads, model/effects/aero.py);
+  RtAeroPwr [W], RtAeroCp [-], RtAeroFyh, RtAeroFzh [N], RtAeroMyh, RtAeroMzh
+  [N m] (aero: AeroDyn's rotor loads, model/effects/aero.py);
   GenTq [kN m], GenPwr [kW] (generator).
 - reaction loads (when the model has reaction coordinates, model/template.py):
   TwrBsMxt, TwrBsMyt [kN m] tower-base side-side (roll) and fore-aft
@@ -23,10 +26,22 @@ Channels (units as OpenFAST writes them):
   about the coned x_c, y_c axes, RotThrust [kN] the force along the shaft
   the rotor (hub and blades: aero, weight and inertia) exerts on it
   (ElastoDyn's LSShftFxa).
+- the other reaction loads, where the model has their coordinates
+  (`reaction_forces`, which `needs_reaction_forces` asks of the wanted
+  channels): TwrBsFxt, TwrBsFyt, TwrBsFzt [kN], TwrBsMzt [kN m] at the
+  tower base (frame t); YawBrFxp, YawBrFyp, YawBrFzp [kN], YawBrMxp,
+  YawBrMyp, YawBrMzp [kN m] at the yaw bearing, below the nacelle (frame p,
+  the tower top's, not yawed); RootFxc<b>, RootFyc<b>, RootFzc<b> [kN],
+  RootMzc<b> [kN m] at blade b's root (coned frame c); and in the pitched
+  blade frame b, turned from the coned one by the pitch as ElastoDyn turns
+  j1 = cos(pitch) i1 - sin(pitch) i2, j2 = sin(pitch) i1 + cos(pitch) i2
+  (ElastoDyn.f90 SetCoordSy): RootMxb<b>, RootMyb<b> [kN m], RootFxb<b>,
+  RootFyb<b> [kN].
 
-Reaction loads: each is the generalised force of a rotation coordinate that
-is fixed at 0 (about the ground y axis at the tower base; about the blade's
-coned y_c axis at its root). With the full equations M qdd = F + R over all
+Reaction loads: each is the generalised force of a rotation (for a moment)
+or translation (for a force) coordinate that is fixed at 0 (e.g. about the
+ground y axis at the tower base; about the blade's coned y_c axis at its
+root; along the ground x axis at the tower base). With the full equations M qdd = F + R over all
 coordinates, the constraint reaction of that row is R = M_row qdd - F_row,
 and the moment the bodies beyond the joint exert on it (external + gravity
 - inertial moments about the joint, i.e. sum over the bodies above of
@@ -55,8 +70,14 @@ CHANNEL_UNITS = {
     "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "GenTq": "kN-m",
     "GenPwr": "kW", "RotPwr": "kW",
     "TwrBsMyt": "kN-m", "TwrBsMxt": "kN-m", "RootMyc<b>": "kN-m", "RootMxc<b>": "kN-m",
+    "TwrBsMzt": "kN-m", "TwrBsFxt": "kN", "TwrBsFyt": "kN", "TwrBsFzt": "kN",
+    "YawBrMxp": "kN-m", "YawBrMyp": "kN-m", "YawBrMzp": "kN-m", "YawBrFxp": "kN", "YawBrFyp": "kN", "YawBrFzp": "kN",
+    "RootMzc<b>": "kN-m", "RootFxc<b>": "kN", "RootFyc<b>": "kN", "RootFzc<b>": "kN",
+    "RootMxb<b>": "kN-m", "RootMyb<b>": "kN-m", "RootFxb<b>": "kN", "RootFyb<b>": "kN",
     "RtAeroFxh": "N", "RtAeroMxh": "N-m", "RtAeroPwr": "W", "RtAeroCp": "-", "RtAeroCq": "-", "RtAeroCt": "-",
     "RtSpeed": "rpm", "RtTSR": "-", "RtVAvgxh": "m/s", "RtSkew": "deg", "RtArea": "m^2",
+    "RtAeroFyh": "N", "RtAeroFzh": "N", "RtAeroMyh": "N-m", "RtAeroMzh": "N-m",
+    "YawBrTDxp": "m", "YawBrTDyp": "m", "YawBrTDzp": "m", "TipRDzc<b>": "deg",
 }
 
 
@@ -70,6 +91,9 @@ CHANNEL_ALIASES = {
     "OoPDefl<b>": ("TipDxc<b>",), "IPDefl<b>": ("TipDyc<b>",), "TipDzc<b>": ("TipDzb<b>",),
     "BldPitch<b>": ("BlPitch<b>", "PtchPMzb<b>", "PtchPMzc<b>"),
     "RootMxc<b>": ("RootMIP<b>",), "RootMyc<b>": ("RootMOoP<b>",),
+    "RootMzc<b>": ("RootMzb<b>",), "RootFzc<b>": ("RootFzb<b>",),
+    "RootMxb<b>": ("RootMEdg<b>",), "RootMyb<b>": ("RootMFlp<b>",),
+    "YawBrFzp": ("YawBrFzn",), "YawBrMzp": ("YawBrMzn",), "TipRDzc<b>": ("TipRDzb<b>", "TwstDefl<b>"),
     "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
     "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
@@ -79,6 +103,32 @@ for _name, _aliases in CHANNEL_ALIASES.items():
     for _b in ("1", "2", "3") if "<b>" in _name else ("",):
         for _alias in _aliases:
             _ALIAS_OF[_alias.replace("<b>", _b).upper()] = _name.replace("<b>", _b)
+
+
+#: the blade-root loads in the pitched frame b and their coned-frame (x, y) sources
+PITCHED_ROOT_LOADS = {"RootMxb": ("RootMxc", "RootMyc"), "RootMyb": ("RootMxc", "RootMyc"),
+                      "RootFxb": ("RootFxc", "RootFyc"), "RootFyb": ("RootFxc", "RootFyc")}
+_FORCE_CHANNELS = re.compile(r"(TwrBs(F[xyz]|Mz)t|YawBr[FM][xyz]p|Root(F[xyz]|Mz)c\d|Root[MF][xy]b\d)")
+
+
+def needs_reaction_forces(wanted) -> bool:
+    """Whether channels `wanted` (None: all) need the reaction coordinates of
+    the forces and remaining moments (model/template.py `reaction_forces`)."""
+    return wanted is None or any(_FORCE_CHANNELS.fullmatch(canonical_channel(c)) for c in wanted)
+
+
+def pitched_root_loads(data: dict, pitch: float, wanted=None) -> dict:
+    """RootMxb<b>, RootMyb<b>, RootFxb<b>, RootFyb<b> from the coned-frame
+    loads in `data` (module doc; pitch [rad]), those in `wanted` unless None."""
+    c, s = np.cos(pitch), np.sin(pitch)
+    out = {}
+    for name, (xc, yc) in PITCHED_ROOT_LOADS.items():
+        for b in range(1, 10):
+            x, y = data.get(f"{xc}{b}"), data.get(f"{yc}{b}")
+            if x is None or y is None or (wanted is not None and f"{name}{b}" not in wanted):
+                continue
+            out[f"{name}{b}"] = c * x - s * y if name[-2] == "x" else s * x + c * y
+    return out
 
 
 def wind_channels(built, times, points, wanted=None) -> dict:
@@ -183,6 +233,7 @@ def channels(built, integ, wanted=None):
     data["TTDspSS"] = -sum((coord(d)[0] for d in ss), np.zeros_like(t))
     data["TTDspTwst"] = np.rad2deg(sum((coord(d)[0] for d in tw), np.zeros_like(t)))
     data.update(tip_deflections(model, coord, t))
+    data.update(tower_top_deflection(model, coord))
     for b in range(1, model.turbine.num_blades + 1):
         data[f"BldPitch{b}"] = np.full_like(t, np.rad2deg(model.pitch))
     if "PtfmSurge" in idx or "PtfmSurge" in model.system.fixed:
@@ -192,7 +243,11 @@ def channels(built, integ, wanted=None):
     if "Yaw" in idx or "Yaw" in model.system.fixed:
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
     data.update(shaft_torque(built, coord, data["RotSpeed"]))
+    if wanted is not None:      # the coned-frame sources of the pitched-frame root loads
+        wanted = set(wanted) | {f"{src}{n[-1]}" for n in wanted if n[:-1] in PITCHED_ROOT_LOADS
+                                for src in PITCHED_ROOT_LOADS[n[:-1]]}
     data.update(load_channels(built, integ, wanted))
+    data.update(pitched_root_loads(data, model.pitch, wanted))
     return data
 
 
@@ -224,6 +279,49 @@ def tip_deflections(model, coord, t) -> dict:
         out[f"OoPDefl{b}"], out[f"IPDefl{b}"] = coned[:, 0], coned[:, 1]
         out[f"TipDxc{b}"], out[f"TipDyc{b}"], out[f"TipDzc{b}"] = coned[:, 0], coned[:, 1], coned[:, 2]
     return out
+
+
+def tower_top_deflection(model, coord) -> dict:
+    """ElastoDyn's YawBrTDxp, YawBrTDyp, YawBrTDzp [m] (ElastoDyn.f90,
+    CalcOutput: rOPO on b1, -b3, b2): the vector from the undeflected to the
+    deflected tower top (the modes' tip displacements and the axial
+    shortening -1/2 q^T G q, in the tower-base frame) in the tower-top frame
+    p, which the tip slopes and twist turn (`flexible_beam.tip_joint`: about
+    y, then x, then z); and TipRDzc<b> [deg], the blade tips' torsion, 0:
+    neither ElastoDyn nor modesel has a blade torsion DOF (ElastoDyn writes
+    0 under TipRDzc, TipRDzb and TwstDefl, "always zero")."""
+    out = {}
+    blades = [b for b in range(1, model.turbine.num_blades + 1) if model.tips.get(f"blade{b}")]
+    tip = model.tips.get("tower")
+    if tip and tip["displacement"]:
+        n = len(coord(next(iter(tip["displacement"])))[0])
+        disp = np.zeros((n, 3))
+        for d, vec in tip["displacement"].items():
+            disp += np.outer(coord(d)[0], vec)
+        if tip.get("shortening") is not None:
+            dofs, G = tip["shortening"]
+            q = np.column_stack([coord(d)[0] for d in dofs])
+            disp[:, 2] -= 0.5 * np.einsum("ti,ij,tj->t", q, np.asarray(G), q)
+        angle = {k: sum((coord(d)[0] * c for d, c in tip[k].items()), np.zeros(n))
+                 for k in ("slope_y", "slope_x", "twist")}
+        R = _rotations(1, angle["slope_y"]) @ _rotations(0, angle["slope_x"]) @ _rotations(2, angle["twist"])
+        local = np.einsum("ti,tij->tj", disp, R)     # components on the tower-top axes (R's columns)
+        out["YawBrTDxp"], out["YawBrTDyp"], out["YawBrTDzp"] = local[:, 0], local[:, 1], local[:, 2]
+    for b in blades:
+        out[f"TipRDzc{b}"] = np.zeros(len(coord("GeAz")[0]))
+    return out
+
+
+def _rotations(axis: int, angles) -> np.ndarray:
+    """(n, 3, 3) elementary rotations about `axis` by each of `angles` [rad]
+    (`multibody.rotations.elementary_rotation`, vectorised)."""
+    c, s = np.cos(angles), np.sin(angles)
+    R = np.zeros((len(c), 3, 3))
+    i, j = [k for k in range(3) if k != axis]
+    R[:, axis, axis] = 1.0
+    R[:, i, i], R[:, j, j] = c, c
+    R[:, i, j], R[:, j, i] = (s, -s) if axis == 1 else (-s, s)
+    return R
 
 
 def shaft_torque(built, coord, rot_speed_rpm) -> dict:

@@ -52,7 +52,16 @@ about the coned-blade x_c, y_c axes at blade b's root), and the hub a
 translation along the shaft (LSShftTxa). Fixed, they change nothing in the
 motion and cost nothing in the free equations; their rows of the full
 equations give the reaction loads (TwrBsMxt, TwrBsMyt, RootMxc<b>,
-RootMyc<b>, RotThrust; see outputs.py).
+RootMyc<b>, RotThrust; see outputs.py). With `reaction_forces=True` also the
+rest of ElastoDyn's six load components at three places (vocabulary
+TOWER_LOAD_REACTIONS, `root_reaction`): translations along and a rotation
+about z at the tower base (TwrBsFxt, TwrBsFyt, TwrBsFzt, TwrBsMzt) and at each
+blade root in the coned frame (RootFxc<b>, RootFyc<b>, RootFzc<b>, RootMzc<b>,
+the last about the pitch axis), and all six at the yaw bearing in the
+tower-top frame p, which the tower's deflection turns but the yaw does not
+(YawBrFxp ... YawBrMzp). The yaw bearing is then a body of its own,
+carrying the yaw-bearing mass (YawBrMass, at the tower top) that ElastoDyn
+counts below the bearing's loads, and the nacelle joins it.
 """
 from __future__ import annotations
 
@@ -70,7 +79,7 @@ from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_fle
 from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
 from modesel.multibody.system import System
 from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION, TOWER_BASE_REACTION,
-                                TOWER_BASE_REACTION_X, TOWER_FIELDS, field_dofs, is_blade_body, is_blade_field,
+                                TOWER_BASE_REACTION_X, TOWER_FIELDS, TOWER_LOAD_REACTIONS, field_dofs, is_blade_body, is_blade_field,
                                 root_reaction)
 
 DRIVETRAINS = ("elastodyn", "two_spring")
@@ -280,7 +289,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                   rotor_speed_for_shapes: float = 0.0, pitch: float = 0.0,
                   include_blades: bool = True, min_nodes: int = 40, drivetrain: str = "elastodyn",
                   gearbox_inertia: float = 0.0, reactions: bool = False, damping: bool = True,
-                  structural_twist: bool = True, elastodyn_nodes: bool = False) -> TurbineModel:
+                  structural_twist: bool = True, elastodyn_nodes: bool = False,
+                  reaction_forces: bool = False) -> TurbineModel:
     """Body tree of `turbine` with the elastic fields of `modeset`.
 
     free: rigid DOFs integrated in time (subset of RIGID_DOFS); elastic DOFs
@@ -288,7 +298,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     {name: Prescribed}. pitch [rad] collective (fixed). drivetrain:
     "elastodyn" or "two_spring" (then HSSTw is a DOF and the gearbox has
     `gearbox_inertia` [kg m^2, LSS side] about the shaft). reactions: add
-    the fixed reaction coordinates (module doc). damping: False builds the
+    the fixed reaction coordinates (module doc); reaction_forces: with
+    them, those of the forces and remaining moments too. damping: False builds the
     beams without structural damping (D_e = 0). min_nodes: quadrature nodes
     per beam, raised to NODES_PER_MODE per mode for many modes.
     structural_twist: blade shapes turn with the structural twist (module
@@ -326,10 +337,17 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     # ---- tower
     reaction_names = {}
     tower_rot = []
+    tower_moves = {}
+    reaction_forces = reactions and reaction_forces
     if reactions:
         tower_rot = [Rotation(0, {TOWER_BASE_REACTION_X: 1.0}), Rotation(1, {TOWER_BASE_REACTION: 1.0})]
         reaction_names["TwrBsMxt"] = TOWER_BASE_REACTION_X
         reaction_names["TwrBsMyt"] = TOWER_BASE_REACTION
+    if reaction_forces:
+        names = TOWER_LOAD_REACTIONS
+        tower_rot.append(Rotation(2, {names["TwrBsMzt"]: 1.0}))
+        tower_moves = {names[f"TwrBsF{a}t"]: e for a, e in zip("xyz", np.eye(3))}
+        reaction_names.update({c: names[c] for c in ("TwrBsFxt", "TwrBsFyt", "TwrBsFzt", "TwrBsMzt")})
     tower_nodes = _nodes_for(modeset, TOWER_FIELDS, min_nodes)
     tower_beam = _quadrature_beam(t, t.tower, modeset, TOWER_FIELDS, 0.0)
     tower_ed = elastodyn_nodes and _elastodyn_discrete(t, "tower", modeset, TOWER_FIELDS)
@@ -350,7 +368,7 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             tower_fields.append(evaluate_field(fld, dofs, fn, s_nodes, t.tower.length, fine_s, ratios,
                                                getattr(t.tower, "stiffness_tuners", {}).get(fld, ())))
             shapes[fld] = fn
-    tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, rotations=tower_rot), tower_beam,
+    tower, ttip = build_flexible_body("tower", Joint(tower_parent, tower_offset, translation=tower_moves, rotations=tower_rot), tower_beam,
                                       tower_fields, shortening=geometric_stiffening, min_nodes=tower_nodes,
                                       ed_nodes=(s_nodes, w_nodes) if tower_ed else None)
     bodies.append(tower if damping else _undamped(tower))
@@ -359,11 +377,21 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     spans["tower"] = s_nodes
 
     # ---- nacelle (yaw bearing + nacelle), ElastoDyn: only the yaw inertia
-    yaw = [Rotation(2, {"Yaw": 1.0})]
-    nj = tip_joint("tower", ttip, extra_rotations=yaw)
     ncm = np.array(t.nacelle_cm, float)
-    mn = t.nacelle_mass + t.yaw_bearing_mass
-    cm = ncm * t.nacelle_mass / mn if mn > 0 else np.zeros(3)
+    if reaction_forces:
+        # the yaw bearing (its mass at the tower top) and the nacelle on it, joined by
+        # the yaw and the six reaction coordinates of the bearing's loads (frame p)
+        names = TOWER_LOAD_REACTIONS
+        bodies.append(RigidBody("yaw_bearing", tip_joint("tower", ttip), t.yaw_bearing_mass))
+        nj = Joint("yaw_bearing", translation={names[f"YawBrF{a}p"]: e for a, e in zip("xyz", np.eye(3))},
+                   rotations=[Rotation(0, {names["YawBrMxp"]: 1.0}), Rotation(1, {names["YawBrMyp"]: 1.0}),
+                              Rotation(2, {"Yaw": 1.0, names["YawBrMzp"]: 1.0})])
+        reaction_names.update({c: names[c] for c in names if c.startswith("YawBr")})
+        mn, cm = t.nacelle_mass, ncm
+    else:
+        nj = tip_joint("tower", ttip, extra_rotations=[Rotation(2, {"Yaw": 1.0})])
+        mn = t.nacelle_mass + t.yaw_bearing_mass
+        cm = ncm * t.nacelle_mass / mn if mn > 0 else np.zeros(3)
     Izz = max(t.nacelle_yaw_inertia - t.nacelle_mass * (ncm[0] ** 2 + ncm[1] ** 2), 0.0)
     bodies.append(RigidBody("nacelle", nj, mn, cm, np.diag([0.0, 0.0, Izz])))
 
@@ -437,11 +465,17 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
             coned = elementary_rotation(0, psi) @ elementary_rotation(1, t.precone[b - 1])
             offset = coned @ np.array([0.0, 0.0, root])
             if reactions:
-                bj = Joint("hub", offset, coned, rotations=[Rotation(0, {root_reaction(b, "x"): 1.0}),
-                                                            Rotation(1, {root_reaction(b): 1.0}),
-                                                            Rotation(2, {}, -pitch)])
+                about_z = {root_reaction(b, "z"): 1.0} if reaction_forces else {}
+                moves = {root_reaction(b, a, "T"): coned[:, k].copy() for k, a in enumerate("xyz")} \
+                    if reaction_forces else {}
+                bj = Joint("hub", offset, coned, translation=moves,
+                           rotations=[Rotation(0, {root_reaction(b, "x"): 1.0}),
+                                      Rotation(1, {root_reaction(b): 1.0}), Rotation(2, about_z, -pitch)])
                 reaction_names[f"RootMxc{b}"] = root_reaction(b, "x")
                 reaction_names[f"RootMyc{b}"] = root_reaction(b)
+                if reaction_forces:
+                    reaction_names[f"RootMzc{b}"] = root_reaction(b, "z")
+                    reaction_names.update({f"RootF{a}c{b}": root_reaction(b, a, "T") for a in "xyz"})
             else:
                 bj = Joint("hub", offset, coned @ elementary_rotation(2, -pitch))
             flds = []

@@ -168,15 +168,18 @@ def effective_modeset(scene: Scene, modeset: ModeSet | None) -> ModeSet:
     return ModeSet(fields)
 
 
-def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = False) -> Built:
+def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = False,
+          reaction_forces: bool = False) -> Built:
     """Equations and effects of `scene` (with `modeset` overriding its
     shapes). reactions: add the reaction coordinates of the load outputs
-    (TwrBsMyt, RootMyc<b>; model/template.py). Effect life cycle: effects/base.py."""
+    (TwrBsMyt, RootMyc<b>; model/template.py); reaction_forces: and those of
+    the forces and remaining moments (TwrBsFxt, YawBrMyp, RootFzc<b> ...). Effect life cycle: effects/base.py."""
     ms = effective_modeset(scene, modeset)
     init = scene.initial
     effects = list(select_effects(scene))
     spec = BuildSpec(free=list(scene.free), fixed=dict(scene.fixed), prescribed={},
-                     pitch=collective(init.get("BlPitch", 0.0)), damping=False, reactions=reactions)
+                     pitch=collective(init.get("BlPitch", 0.0)), damping=False, reactions=reactions,
+                     reaction_forces=reaction_forces)
     if ROTOR_AZIMUTH in scene.constant_speed:
         spec.prescribed[ROTOR_AZIMUTH] = Prescribed(init.get("Azimuth", 0.0), scene.constant_speed[ROTOR_AZIMUTH])
     for e in effects:
@@ -190,7 +193,8 @@ def build(scene: Scene, modeset: ModeSet | None = None, *, reactions: bool = Fal
                           elastodyn_nodes=bool(scene.effect("elastodyn_nodes", False)),
                           rotor_speed_for_shapes=scene.constant_speed.get(ROTOR_AZIMUTH, init.get("RotSpeed", 0.0)),
                           pitch=spec.pitch, drivetrain=spec.drivetrain, gearbox_inertia=spec.gearbox_inertia,
-                          reactions=spec.reactions, damping=spec.damping)
+                          reactions=spec.reactions, damping=spec.damping,
+                          reaction_forces=spec.reaction_forces)
     for e in effects:
         model = e.prepare(model)
     eq = KaneEquations(model.system)

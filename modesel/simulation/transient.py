@@ -8,7 +8,8 @@ import numpy as np
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
-from modesel.model.outputs import canonical_channel, channel_unit, channels, wind_channels, with_aliases
+from modesel.model.outputs import (canonical_channel, channel_unit, channels, needs_reaction_forces, wind_channels,
+                                   with_aliases)
 from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
@@ -73,7 +74,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         raise ModeselError(f"the outputs start at {scene.output_start:g} s, after tmax = {tmax:g} s: no output "
                            f"row", file=scene.path, field="TStart")
     t0 = time.perf_counter()
-    built = build(scene, modeset, reactions=True)
+    built = build(scene, modeset, reactions=True, reaction_forces=needs_reaction_forces(wanted))
     first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once
     requested = scene.solver.get("method", "auto")
     names = list(built.model.system.free)

@@ -28,7 +28,9 @@ def test_good_file_still_reads():
     assert list(frame.columns)[0] == "Time" and len(frame) == 401
 
 
-@pytest.mark.parametrize("case", ["random", "truncated", "extended", "huge_counts", "zero", "bad_id"])
+# (a file longer than its header promises is read, not refused: OpenFAST 5.0 leaves one when it
+# writes over a longer run's .outb; tests/test_openfast_output.py)
+@pytest.mark.parametrize("case", ["random", "truncated", "huge_counts", "zero", "bad_id"])
 def test_corrupt_binary_is_one_line_error_without_allocation(tmp_path, case):
     good = GOOD.read_bytes()
     rng = np.random.default_rng(7)
@@ -37,8 +39,6 @@ def test_corrupt_binary_is_one_line_error_without_allocation(tmp_path, case):
         data = np.int16(1).tobytes() + data[2:]            # a valid id, garbage after it
     elif case == "truncated":
         data = good[:-100]
-    elif case == "extended":
-        data = good + b"\0" * 500
     elif case == "huge_counts":
         data = good[:2] + np.int32(90_000).tobytes() + np.int32(2_000_000_000).tobytes() + good[10:]
     elif case == "zero":

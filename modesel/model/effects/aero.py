@@ -143,7 +143,7 @@ class BladeAerodynamics(Effect):
     loads = True
     kinked = True             # the polars are interpolated linearly in the angle of attack
     CHANNELS = ("RtAeroFxh", "RtAeroMxh", "RtAeroPwr", "RtAeroCp", "RtAeroCq", "RtAeroCt", "RtSpeed", "RtTSR",
-                "RtVAvgxh", "RtSkew", "RtArea")
+                "RtVAvgxh", "RtSkew", "RtArea", "RtAeroFyh", "RtAeroFzh", "RtAeroMyh", "RtAeroMzh")
     OPTIONS = {
         "aerodyn": Option("path", None, "AeroDyn main file"),
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
@@ -311,7 +311,9 @@ class BladeAerodynamics(Effect):
     def channels(self, built):
         """AeroDyn's rotor channels (AeroDyn_IO.f90): RtAeroFxh [N] and
         RtAeroMxh [N m], the blade loads' force along and moment about the
-        hub x axis (through the apex); RtAeroPwr [W] = RtAeroMxh * rotor
+        hub x axis (through the apex), and RtAeroFyh, RtAeroFzh [N], RtAeroMyh,
+        RtAeroMzh [N m] along and about the hub's y and z axes, which turn
+        with the rotor (z along blade 1; `rotor_loads`); RtAeroPwr [W] = RtAeroMxh * rotor
         speed; RtAeroCp, RtAeroCq, RtAeroCt (`rotor_power`) with V the
         disk-averaged relative wind along the hub x axis (`V_dot_x`: wind
         minus blade velocity, averaged over the stations), also RtVAvgxh
@@ -324,19 +326,19 @@ class BladeAerodynamics(Effect):
             return {}
         frames = built.frames(self.last["q"], self.last["qd"])
         R, vec = frames
-        thrust = torque = 0.0
+        hub = np.zeros(6)
         for b, nodes in enumerate(self.nodes):
             pos, _ = nodes.kinematics(frames, self.last["q"], self.last["qd"])
-            f, m = rotor_loads(self.forces[b], pos, R[self.hub], vec[self.hub, 0])
-            thrust += f
-            torque += m
+            rotor_loads(self.forces[b], pos, R[self.hub], vec[self.hub, 0], hub)
+        thrust, torque = hub[0], hub[3]
         omega = float(vec[self.hub, 2] @ R[self.hub][:, 0])
         v = self.last["v_dot_x"]
         rmax = self.last["rmax"]
         power, cp, cq, ct = rotor_power(torque, thrust, omega, v, self.bem.solver.air_density, rmax)
         return {"RtAeroFxh": thrust, "RtAeroMxh": torque, "RtAeroPwr": power, "RtAeroCp": cp, "RtAeroCq": cq,
                 "RtAeroCt": ct, "RtSpeed": omega * 30.0 / np.pi, "RtTSR": self.last["tsr"], "RtVAvgxh": v,
-                "RtSkew": np.degrees(self.last["skew"]), "RtArea": np.pi * rmax ** 2}
+                "RtSkew": np.degrees(self.last["skew"]), "RtArea": np.pi * rmax ** 2,
+                "RtAeroFyh": hub[1], "RtAeroFzh": hub[2], "RtAeroMyh": hub[4], "RtAeroMzh": hub[5]}
 
 
 class StationBem:
@@ -354,19 +356,20 @@ class StationBem:
 
 
 @njit(cache=True)
-def rotor_loads(forces, pos, R_hub, apex):
-    """(thrust along the shaft x_s, torque about it through the apex) of node
-    forces (columns 0-2) and node moments (3-5)."""
-    thrust = 0.0
-    torque = 0.0
+def rotor_loads(forces, pos, R_hub, apex, out):
+    """Adds to out[0:3] the force and to out[3:6] the moment about the apex
+    of node forces (columns 0-2) and node moments (3-5), both in the hub
+    frame (columns of R_hub: x_s along the shaft, thrust and torque; y and
+    z turning with the rotor, z along blade 1's undeflected axis: AeroDyn's
+    hub orientation, RtAeroF*h and RtAeroM*h)."""
     for i in range(forces.shape[0]):
         f = forces[i]
         d0, d1, d2 = pos[i, 0] - apex[0], pos[i, 1] - apex[1], pos[i, 2] - apex[2]
         m0, m1, m2 = d1 * f[2] - d2 * f[1], d2 * f[0] - d0 * f[2], d0 * f[1] - d1 * f[0]
         m0, m1, m2 = m0 + f[3], m1 + f[4], m2 + f[5]
-        thrust += f[0] * R_hub[0, 0] + f[1] * R_hub[1, 0] + f[2] * R_hub[2, 0]
-        torque += m0 * R_hub[0, 0] + m1 * R_hub[1, 0] + m2 * R_hub[2, 0]
-    return thrust, torque
+        for k in range(3):
+            out[k] += f[0] * R_hub[0, k] + f[1] * R_hub[1, k] + f[2] * R_hub[2, k]
+            out[3 + k] += m0 * R_hub[0, k] + m1 * R_hub[1, k] + m2 * R_hub[2, k]
 
 
 @njit(cache=True)

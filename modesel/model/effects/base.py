@@ -58,7 +58,8 @@ class BuildSpec:
     free (rigid DOFs), fixed {name: value}, prescribed {name: Prescribed},
     pitch [rad], drivetrain ("elastodyn" | "two_spring"), gearbox_inertia
     [kg m^2], damping (True: the deck's modal damping, False: none),
-    reactions (add reaction coordinates)."""
+    reactions (add reaction coordinates), reaction_forces (and those of the
+    forces and remaining moments, model/template.py)."""
 
     free: list
     fixed: dict
@@ -68,6 +69,7 @@ class BuildSpec:
     gearbox_inertia: float = 0.0
     damping: bool = True
     reactions: bool = False
+    reaction_forces: bool = False
 
 
 class Effect:

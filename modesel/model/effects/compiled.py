@@ -224,7 +224,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
         fflag[blades[b]] = 1
     if state[CHANNEL_FLAG] != 0.0:          # the node point sets follow the 7 flags
         _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r.max(), vrel, tsr,
-                        skew[0, 0], state[o_ch:o_ch + 11])
+                        skew[0, 0], state[o_ch:o_ch + 15])
 
 
 @njit(cache=True)
@@ -233,17 +233,16 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
     of the node loads `forces` (B, N, 6) into out: RtAeroFxh [N], RtAeroMxh
     [N m], RtAeroPwr [W], RtAeroCp, RtAeroCq, RtAeroCt [-], RtSpeed [rpm],
     RtTSR [-] (tsr), RtVAvgxh [m/s], RtSkew [deg] (chi0 [rad]), RtArea
-    [m^2]; the node point sets' ints start at p."""
+    [m^2], RtAeroFyh, RtAeroFzh [N], RtAeroMyh, RtAeroMzh [N m]; the node
+    point sets' ints start at p."""
     B, N = forces.shape[0], forces.shape[1]
     pos = np.empty((N, 3))
     vel = np.empty((N, 3))
-    thrust = 0.0
-    torque = 0.0
+    loads = np.zeros(6)
     for b in range(B):
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel)
-        f, m = rotor_loads(forces[b], pos, R[hub], vec[hub, 0])
-        thrust += f
-        torque += m
+        rotor_loads(forces[b], pos, R[hub], vec[hub, 0], loads)
+    thrust, torque = loads[0], loads[3]
     omega = 0.0
     v = 0.0
     for k in range(3):
@@ -257,6 +256,7 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
     out[8] = v
     out[9] = chi0 * 180.0 / np.pi
     out[10] = np.pi * rmax * rmax
+    out[11], out[12], out[13], out[14] = loads[1], loads[2], loads[4], loads[5]
 
 
 @njit(cache=True)
