@@ -48,3 +48,21 @@ def test_initial_blade_coordinates_are_elastodyns(runs):
     for b in (1, 2, 3):
         assert out[f"OoPDefl{b}"].iloc[0] == pytest.approx(2.0, abs=1e-9)
         assert out[f"IPDefl{b}"].iloc[0] == pytest.approx(0.5, abs=1e-9)
+
+
+def test_parked_release_accelerations_and_loads(runs):
+    """The tower top's acceleration in its frame p (YawBrTAxp, YawBrTAyp), the
+    nacelle IMU's in the shaft frame (NcIMUTAxs: 3.1 m upwind and 2.2 m above
+    the tower top, so the nacelle's pitching adds to it: std 1.265 against
+    1.225 m/s^2 at the tower top, in both tools) and the reaction loads at
+    the tower base, the yaw bearing and blade 1's root: NRMSE <= 1 %."""
+    _, ref, out = runs
+    channels = ("YawBrTAxp", "YawBrTAyp", "NcIMUTAxs", "TwrBsFxt", "TwrBsFyt", "TwrBsMxt", "TwrBsMyt",
+                "TwrBsMzt", "YawBrFxp", "YawBrFyp", "YawBrMxp", "YawBrMyp", "RootFxc1", "RootFyc1", "RootMxc1",
+                "RootMyc1", "RootMzc1")
+    res = {c: nrmse(ref, out, c) for c in channels}
+    text = ", ".join(f"{c} {v:.3%}" for c, v in res.items())
+    assert all(v <= 0.01 for v in res.values()), text
+    assert out.attrs["units"]["NcIMUTAxs"] == "m/s^2"
+    ratio = {name: f.NcIMUTAxs.std() / f.YawBrTAxp.std() for name, f in (("modesel", out), ("OpenFAST", ref))}
+    assert ratio["OpenFAST"] > 1.02 and ratio["modesel"] == pytest.approx(ratio["OpenFAST"], rel=2e-3), ratio

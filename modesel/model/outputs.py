@@ -78,6 +78,8 @@ CHANNEL_UNITS = {
     "RtSpeed": "rpm", "RtTSR": "-", "RtVAvgxh": "m/s", "RtSkew": "deg", "RtArea": "m^2",
     "RtAeroFyh": "N", "RtAeroFzh": "N", "RtAeroMyh": "N-m", "RtAeroMzh": "N-m",
     "YawBrTDxp": "m", "YawBrTDyp": "m", "YawBrTDzp": "m", "TipRDzc<b>": "deg",
+    "YawBrTAxp": "m/s^2", "YawBrTAyp": "m/s^2", "YawBrTAzp": "m/s^2", "NcIMUTAxs": "m/s^2", "NcIMUTAys": "m/s^2",
+    "NcIMUTAzs": "m/s^2",
 }
 
 
@@ -340,28 +342,121 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
 
 
 def load_channels(built, integ, wanted=None) -> dict:
-    """Effect channels and reaction loads at every output time (empty when
-    the scene has neither), those in `wanted` unless it is None (an effect's
-    channels come all together). Where every effect runs compiled, both come
-    from one compiled pass over the output times, the effects' loads and
-    channels inside it (`CompiledRHS.outputs`); otherwise the effect channels
-    come from the effects' Python `__call__` and `channels` at each output
-    time (`python_effect_channels`, the reference of the compiled ones)."""
+    """Effect channels, reaction loads and accelerations at every output
+    time (empty when the scene has none of them), those in `wanted` unless
+    it is None (an effect's channels come all together). Where every effect
+    runs compiled, all come from one compiled pass over the output times,
+    the effects' loads and channels inside it (`CompiledRHS.outputs`);
+    otherwise the effect channels come from the effects' Python `__call__`
+    and `channels` at each output time (`python_effect_channels`, the
+    reference of the compiled ones). Accelerations: `tower_top_accelerations`."""
     with_channels = [e for e in built.acting if type(e).channels is not Effect.channels
                      and (wanted is None or set(e.CHANNELS) & set(wanted))]
     reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
-    if not with_channels and not reactions:
+    accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else []
+    if not with_channels and not reactions and not accel:
         return {}
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
     if not all(c in getattr(rhs, "channels", {}) for c in names):
-        out = _reaction_channels(built, integ, reactions, rhs) if reactions else {}
+        out, qdd = _reaction_channels(built, integ, reactions, rhs, accel) if reactions or accel else ({}, {})
         out.update(python_effect_channels(built, integ, with_channels))
-        return out
-    rows = list(reactions.values())
-    values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names)
-    out = {n: values[:, k] / 1e3 for k, n in enumerate(reactions)}
-    out.update({n: values[:, len(rows) + k] for k, n in enumerate(names)})
+    else:
+        rows = list(reactions.values())
+        values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names, accel)
+        out = {n: values[:, k] / 1e3 for k, n in enumerate(reactions)}
+        qdd = {c: values[:, len(rows) + k] for k, c in enumerate(accel)}
+        out.update({n: values[:, len(rows) + len(accel) + k] for k, n in enumerate(names)})
+    if accel:
+        out.update(tower_top_accelerations(built, integ, qdd))
+    return out
+
+
+#: ElastoDyn's accelerations [m/s^2] modesel writes where the tower base is fixed
+#: (`tower_top_accelerations`): the tower top's in frame p, the nacelle IMU's in the shaft frame
+ACCELERATION_CHANNELS = ("YawBrTAxp", "YawBrTAyp", "YawBrTAzp", "NcIMUTAxs", "NcIMUTAys", "NcIMUTAzs")
+
+
+def _tower_top_coordinates(built) -> list:
+    """The coordinates whose accelerations give the tower top's and the
+    nacelle's motion: the tower tip's and Yaw; [] where the tower has no
+    modes or the tower base moves (a platform coordinate), which this does
+    not cover."""
+    model = built.model
+    tip = model.tips.get("tower")
+    index = built.eq.index
+    if not tip or not tip["displacement"] or any(d in index for d in ("PtfmSurge", "PtfmPitch")):
+        return []
+    names = set(tip["displacement"]) | set(tip["slope_x"]) | set(tip["slope_y"]) | set(tip["twist"])
+    if tip.get("shortening") is not None:
+        names |= set(tip["shortening"][0])
+    return sorted(n for n in names if n in index) + (["Yaw"] if "Yaw" in index else [])
+
+
+def tower_top_accelerations(built, integ, qdd) -> dict:
+    """ElastoDyn's YawBrTAxp, YawBrTAyp, YawBrTAzp [m/s^2] (LinAccEO on b1,
+    -b3, b2: the tower top's inertial acceleration in the tower-top frame p)
+    and NcIMUTAxs, NcIMUTAys, NcIMUTAzs [m/s^2] (LinAccEIMU on c1, -c3, c2:
+    the nacelle IMU's, at NcIMUxn, NcIMUyn, NcIMUzn from the tower top in
+    the nacelle frame, in the shaft frame: tilted, yawed, not turning with
+    the rotor), gravity excluded, on a fixed tower base. qdd: {coordinate:
+    its accelerations at the output times} (`_tower_top_coordinates`).
+
+    With the tower tip's displacement d = Phi q - 1/2 (q^T G q) e_z, its
+    acceleration is Phi qdd - (qd^T G qd + q^T G qdd) e_z. The nacelle turns
+    by Ry(a_y) Rx(a_x) Rz(a_z + yaw) (`flexible_beam.tip_joint`, the slopes
+    and twist linear in q), so its angular velocity is
+    w = a_y' e_y + Ry e_x a_x' + Ry Rx e_z c', c = a_z + yaw, and its angular
+    acceleration alpha = a_y'' e_y + Ry e_x a_x'' + a_y' a_x' e_y x Ry e_x
+    + Ry Rx e_z c'' + (a_y' e_y + a_x' Ry e_x) x Ry Rx e_z c'; the IMU at
+    rho = R_n imu from the tower top: a = a_O + alpha x rho + w x (w x rho)."""
+    model = built.model
+    tip = model.tips["tower"]
+    names = list(model.system.free)
+    idx = {n: i for i, n in enumerate(names)}
+    n = len(integ.t)
+
+    def state(name):
+        """(q, qd, qdd) of a coordinate over the output times."""
+        if name in idx:
+            return integ.q[:, idx[name]], integ.qd[:, idx[name]], qdd.get(name, np.zeros(n))
+        if name in model.system.prescribed:
+            vals = np.array([model.system.prescribed[name](ti)[:3] for ti in integ.t])
+            return vals[:, 0], vals[:, 1], vals[:, 2]
+        return np.full(n, model.system.fixed.get(name, 0.0)), np.zeros(n), np.zeros(n)
+
+    acc = np.zeros((n, 3))
+    for d, vec in tip["displacement"].items():
+        acc += np.outer(state(d)[2], vec)
+    if tip.get("shortening") is not None:
+        dofs, G = tip["shortening"]
+        G = np.asarray(G)
+        q, qd, qdd_ = (np.column_stack([state(d)[k] for d in dofs]) for k in range(3))
+        acc[:, 2] -= np.einsum("ti,ij,tj->t", qd, G, qd) + np.einsum("ti,ij,tj->t", q, G, qdd_)
+
+    def angle(key, extra=()):
+        parts = [(state(d), c) for d, c in tip[key].items()] + [(state(d), 1.0) for d in extra]
+        return tuple(sum((st[k] * c for st, c in parts), np.zeros(n)) for k in range(3))
+
+    ay, ax = angle("slope_y"), angle("slope_x")
+    az = angle("twist", ["Yaw"] if "Yaw" in built.eq.index else [])
+    Ry, Rx, Rz = _rotations(1, ay[0]), _rotations(0, ax[0]), _rotations(2, az[0])
+    R_p = Ry @ Rx @ _rotations(2, angle("twist")[0])
+    ey = np.array([0.0, 1.0, 0.0])
+    x1 = Ry[:, :, 0]                                  # Ry e_x
+    z2 = (Ry @ Rx)[:, :, 2]                           # Ry Rx e_z
+    w_yx = ay[1][:, None] * ey + ax[1][:, None] * x1
+    w = w_yx + az[1][:, None] * z2
+    alpha = (ay[2][:, None] * ey + ax[2][:, None] * x1 + (ay[1] * ax[1])[:, None] * np.cross(ey, x1)
+             + az[2][:, None] * z2 + az[1][:, None] * np.cross(w_yx, z2))
+    local = np.einsum("ti,tij->tj", acc, R_p)
+    out = {"YawBrTAxp": local[:, 0], "YawBrTAyp": local[:, 1], "YawBrTAzp": local[:, 2]}
+    R_n = Ry @ Rx @ Rz
+    rho = R_n @ np.asarray(model.turbine.nacelle_imu, float)
+    a_imu = acc + np.cross(alpha, rho) + np.cross(w, np.cross(w, rho))
+    shaft = R_n @ _rotations(1, np.array([-model.turbine.shaft_tilt]))[0]
+    s_imu = np.einsum("ti,tij->tj", a_imu, shaft)
+    out.update({"NcIMUTAxs": s_imu[:, 0], "NcIMUTAys": s_imu[:, 1], "NcIMUTAzs": s_imu[:, 2]})
     return out
 
 
@@ -385,19 +480,22 @@ def python_effect_channels(built, integ, effects) -> dict:
     return out
 
 
-def _reaction_channels(built, integ, reactions, rhs) -> dict:
-    """Reaction loads [kN, kN m] (module doc) of `reactions` {channel:
-    coordinate} along `integ`; rhs: `built.rhs(all_rows=True)`."""
+def _reaction_channels(built, integ, reactions, rhs, accelerations=()):
+    """(reaction loads [kN, kN m] (module doc) of `reactions` {channel:
+    coordinate}, {coordinate: acceleration} of `accelerations`) along
+    `integ`; rhs: `built.rhs(all_rows=True)`."""
     names = list(reactions)
     rows = [reactions[n] for n in names]
-    if hasattr(rhs, "reactions"):
-        loads = rhs.reactions(integ.t, integ.q, integ.qd, rows)
-        return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}
+    if hasattr(rhs, "outputs"):
+        loads = rhs.outputs(integ.t, integ.q, integ.qd, rows, (), accelerations)
+        return ({n: loads[:, k] / 1e3 for k, n in enumerate(names)},
+                {c: loads[:, len(rows) + k] for k, c in enumerate(accelerations)})
     # an effect without a compiled form: the Python loads at each output time
     eq = built.eq
     index = [eq.index[r] for r in rows]
     fi, pi = eq.free_idx, eq.presc_idx
-    loads = np.full((len(integ.t), len(rows)), np.nan)
+    loads = np.full((len(integ.t), len(rows) + len(accelerations)), np.nan)
+    index += [eq.index[c] for c in accelerations]
     for k, ti in enumerate(integ.t):
         q_all, qd_all, qdd_p = eq.full_state(integ.q[k], integ.qd[k], ti)
         gen, nodes = built.loads(ti, q_all, qd_all)
@@ -406,5 +504,6 @@ def _reaction_channels(built, integ, reactions, rhs) -> dict:
         qdd[pi] = qdd_p[pi]
         rhs_f = F[fi] - M[np.ix_(fi, pi)] @ qdd_p[pi] if len(pi) else F[fi]
         qdd[fi] = np.linalg.solve(M[np.ix_(fi, fi)], rhs_f)
-        loads[k] = F[index] - M[index] @ qdd
-    return {n: loads[:, k] / 1e3 for k, n in enumerate(names)}
+        loads[k] = np.concatenate([F[index[:len(rows)]] - M[index[:len(rows)]] @ qdd, qdd[index[len(rows):]]])
+    return ({n: loads[:, k] / 1e3 for k, n in enumerate(names)},
+            {c: loads[:, len(rows) + k] for k, c in enumerate(accelerations)})

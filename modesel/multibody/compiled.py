@@ -162,18 +162,20 @@ class CompiledRHS:
         free states q, qd (n_t, n_free): (n_t, len(rows)). Needs all_rows."""
         return self.outputs(t, q, qd, rows)
 
-    def outputs(self, t, q, qd, rows=(), channels=()):
-        """Reaction loads of coordinates `rows` (as `reactions`) and the
-        effects' output `channels` (names in `self.channels`, scaled) at times
-        t (n_t,) and free states q, qd (n_t, n_free), in one compiled pass
-        over the times: (n_t, len(rows) + len(channels)), NaN throughout
-        where an evaluation fails. The effects' latched switches advance with
-        the times, as in an integration. Needs all_rows."""
+    def outputs(self, t, q, qd, rows=(), channels=(), accelerations=()):
+        """Reaction loads of coordinates `rows` (as `reactions`), the
+        accelerations of coordinates `accelerations` (names; free: solved,
+        prescribed: their own, fixed: 0) [m/s^2 or rad/s^2] and the effects'
+        output `channels` (names in `self.channels`, scaled) at times t (n_t,)
+        and free states q, qd (n_t, n_free), in one compiled pass over the
+        times: (n_t, len(rows) + len(accelerations) + len(channels)), NaN
+        throughout where an evaluation fails. The effects' latched switches
+        advance with the times, as in an integration. Needs all_rows."""
         if not self.packed.data[12].all():         # the active mask: every row
             raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
         t = np.array(t, float, ndmin=1)        # a writable copy: the one type the first run compiles for
         X = np.ascontiguousarray(np.hstack([np.atleast_2d(q), np.atleast_2d(qd)]), float)
-        idx = np.array([self.eq.index[r] for r in rows], np.int64)
+        idx = np.array([self.eq.index[r] for r in rows] + [-1 - self.eq.index[c] for c in accelerations], np.int64)
         slots = np.array([self.channels[c][0] for c in channels], np.int64)
         out = np.zeros((len(t), len(idx) + len(slots)))
         state = self.prob[9][3]

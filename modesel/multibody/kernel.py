@@ -895,7 +895,9 @@ def reaction_loads(system, solve, ts, X, rows, slots, prob, rwork, data, work, o
     packed with all rows. solve: SOLVE; NO_SOLVE leaves the free
     accelerations out (qdd = the prescribed ones), which gives the free rows'
     F_f of `free_system` at each state (the linear model's differences,
-    `CompiledRHS.linear_model`, with any packing). Returns a status code."""
+    `CompiledRHS.linear_model`, with any packing). A negative entry r of
+    `rows` asks for the acceleration of coordinate -1 - r instead (free:
+    solved; prescribed: its own; fixed: 0). Returns a status code."""
     nf = X.shape[1] // 2
     n = rwork[1].shape[0]
     nr = rows.shape[0]
@@ -916,6 +918,9 @@ def reaction_loads(system, solve, ts, X, rows, slots, prob, rwork, data, work, o
             qdd[prob[0][a]] = acc[nf + a] if solve != NO_SOLVE else 0.0
         for j in range(rows.shape[0]):
             r = rows[j]
+            if r < 0:
+                out[k, j] = qdd[-1 - r]
+                continue
             v = F[r]
             for i in range(n):
                 v -= M[r, i] * qdd[i]

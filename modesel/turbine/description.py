@@ -18,7 +18,9 @@ class Turbine:
     Geometry [m]: `tower_height` (TowerHt, tower top above ground/MSL),
     `tower_base_height` (TowerBsHt), `tip_radius`, `hub_radius`, `overhang`
     (OverHang, negative upwind), `twr2shft` (Twr2Shft), `nacelle_cm`
-    (NacCMxn, NacCMyn, NacCMzn), `hub_cm` (HubCM).
+    (NacCMxn, NacCMyn, NacCMzn), `nacelle_imu` (NcIMUxn, NcIMUyn, NcIMUzn: the
+    nacelle IMU from the tower top in the nacelle frame, 0 where the deck has
+    none), `hub_cm` (HubCM).
     Angles [rad]: `precone` (PreCone, per blade), `shaft_tilt` (ShftTilt).
     Masses [kg] and inertias [kg m^2]: `hub_mass`, `hub_inertia` (about the
     shaft), `generator_inertia` (GenIner, about the HSS), `nacelle_mass`,
@@ -47,6 +49,7 @@ class Turbine:
     overhang: float = 0.0
     twr2shft: float = 0.0
     nacelle_cm: tuple = (0.0, 0.0, 0.0)
+    nacelle_imu: tuple = (0.0, 0.0, 0.0)
     hub_cm: float = 0.0
     hub_mass: float = 0.0
     hub_inertia: float = 0.0

@@ -218,6 +218,7 @@ def read_elastodyn(path) -> Turbine:
         shaft_tilt=deg(num("ShftTilt", "ShftTilt")), overhang=num("OverHang", "OverHang"),
         twr2shft=num("Twr2Shft", "Twr2Shft"),
         nacelle_cm=(num("NacCMxn", "NacCMxn"), num("NacCMyn", "NacCMyn"), num("NacCMzn", "NacCMzn")),
+        nacelle_imu=tuple(num(k, k) if ed.get(k) is not None else 0.0 for k in ("NcIMUxn", "NcIMUyn", "NcIMUzn")),
         hub_cm=num("HubCM", "HubCM"), hub_mass=num("HubMass", "HubMass"),
         hub_inertia=num("HubIner", "HubIner"), generator_inertia=num("GenIner", "GenIner"),
         nacelle_mass=num("NacMass", "NacMass"), nacelle_yaw_inertia=num("NacYIner", "NacYIner"),
