@@ -435,3 +435,53 @@ def test_node_sums_alone_load_no_invariant_route():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeypatch):
+    """`first_run.compile_in_parallel` on an empty cache: a scene without
+    effects compiles the right-hand side here and the loops in the child,
+    not the effects' loads it never calls (28 s of one core, which made
+    paper_3dof_land's first run 43-48 s instead of 26-32 s); a scene with
+    BEM loads has the child compile them. It is decided by the cache of the
+    right-hand side's cfunc, which numba keeps under `kernel.free_system`,
+    and it spawns nothing once that is there (a child per warm run cost a
+    warm paper_3dof_land 1 s)."""
+    from modesel.simulation import first_run
+    from modesel.simulation.api import build, load_scene
+    from modesel.simulation.scene import scene_from_dict
+
+    spawned = []
+
+    class Child:
+        def __init__(self, args, **kwargs):
+            spawned.append(args[-1])
+
+        def wait(self):
+            return 0
+
+        def poll(self):
+            return 0
+
+    monkeypatch.setattr(first_run.subprocess, "Popen", Child)
+    monkeypatch.setattr(first_run, "_compile_system", lambda built: None)
+    monkeypatch.setattr(first_run, "compile_loops", lambda names: spawned.append(("here", tuple(names))))
+    cached = set()
+    monkeypatch.setattr(first_run, "is_cold", lambda module, function=None: (module, function) not in cached)
+    bare = build(scene_from_dict(SMALL_RIGID))
+    windy = build(load_scene(ROOT / "studies" / "data" / "openfast" / "steady_08" / "steady_08.fst"))
+    monkeypatch.delitem(sys.modules, first_run.SYSTEM_MODULE, raising=False)
+    monkeypatch.delitem(sys.modules, first_run.LOADS_MODULE, raising=False)
+    assert first_run.compile_in_parallel(bare)
+    code, here = spawned
+    assert first_run.LOADS_MODULE not in code and "compile_loops(('runge_kutta', 'reaction_loads'))" in code
+    assert here == ("here", ())
+    spawned.clear()
+    cached.add(first_run.SYSTEM_CACHE)
+    assert not first_run.compile_in_parallel(bare) and not spawned
+    assert first_run.compile_in_parallel(windy)
+    assert f"import {first_run.LOADS_MODULE}" in spawned[0] and spawned[1] == ("here", ("runge_kutta",))
+    # the right-hand side's cfunc is cached under the function it compiles (numba's naming)
+    from modesel.multibody import system_function
+    index = system_function.FREE_SYSTEM._cache._cache_file._index_name
+    module, function = first_run.SYSTEM_CACHE
+    assert index.startswith(f"{module.rsplit('.', 1)[1]}.{function}-"), index

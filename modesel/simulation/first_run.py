@@ -18,8 +18,12 @@ it), the loads and then the reaction loads (for their argument types alone)
 in a child process, while this process compiles the right-hand side against
 `NO_LOADS` and the stand-in, and then the Runge-Kutta loop (where the scene
 uses the invariant route, whose compile lengthens the child's share, this
-process compiles the reaction loads too). All land in numba's cache, from
-which the simulation then loads them. Timings: README, Benchmarks.
+process compiles the reaction loads too). A scene without effects does not
+compile the loads (28 s of one core, which it never calls; the first scene
+with effects compiles them beside loading the rest): the child compiles the
+invariant route (where used) and the loops, this process the right-hand
+side. All land in numba's cache, from which the simulation then loads them.
+Timings: README, Benchmarks.
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).
@@ -40,27 +44,34 @@ from modesel.engine_cache import cache_places
 LOADS_MODULE = "modesel.model.effects.compiled"
 #: the module of the flexible bodies' invariant route (compiled by the child first)
 INVARIANT_MODULE = "modesel.multibody.invariant_sums"
+#: the module whose import compiles the right-hand side's cfunc (by this process), and
+#: where numba caches it: under the module and name of the function it compiles
+SYSTEM_MODULE = "modesel.multibody.system_function"
+SYSTEM_CACHE = ("modesel.multibody.kernel", "free_system")
 
 
-def index_files(module: str) -> list:
-    """numba cache index files (*.nbi) of `module` in the places numba looks
-    (`engine_cache.cache_places`: NUMBA_CACHE_DIR, else __pycache__ beside
-    the source, then the user-wide cache)."""
+def index_files(module: str, function: str | None = None) -> list:
+    """numba cache index files (*.nbi) of `module` (of its `function` alone
+    if given) in the places numba looks (`engine_cache.cache_places`:
+    NUMBA_CACHE_DIR, else __pycache__ beside the source, then the user-wide
+    cache)."""
     spec = importlib.util.find_spec(module)
     if spec is None or not spec.origin:
         return []
     source = Path(os.path.abspath(spec.origin))
     for place in cache_places(source.parent):
-        found = list(place.glob(f"{source.stem}.*.nbi")) if place.is_dir() else []
+        pattern = f"{source.stem}.{function}-*.nbi" if function else f"{source.stem}.*.nbi"
+        found = list(place.glob(pattern)) if place.is_dir() else []
         if found:
             return found
     return []
 
 
-def is_cold(module: str) -> bool:
-    """True when `module`'s compiled functions have no numba cache yet."""
+def is_cold(module: str, function: str | None = None) -> bool:
+    """True when `module`'s compiled functions (its `function` if given) have
+    no numba cache yet."""
     try:
-        return not index_files(module)
+        return not index_files(module, function)
     except OSError:
         return False
 
@@ -81,8 +92,8 @@ def die_with_parent_signal() -> None:
 
 def compile_in_parallel(built) -> bool:
     """Compile the parts of the engine (module doc) in a child process and
-    here at once, when the loads have no numba cache yet, also for a scene
-    without effects (a later one with effects finds them compiled). Returns
+    here at once: for a scene with effects when the loads have no numba
+    cache yet, for one without when the right-hand side has none. Returns
     True when it ran. The child is waited for, and killed if this process is
     interrupted, so no process outlives the call; if it fails, the simulation
     compiles what it lacks itself, as without this step. Cheap when there is
@@ -90,21 +101,28 @@ def compile_in_parallel(built) -> bool:
     acting = getattr(built, "acting", None)
     if acting is None or not all(hasattr(e, "compile_loads") for e in acting):
         return False                # loads in Python: scipy's integrators, not the kernel's loops
-    if LOADS_MODULE in sys.modules or not is_cold(LOADS_MODULE):
+    with_loads = len(acting) > 0
+    module, cache = (LOADS_MODULE, (LOADS_MODULE,)) if with_loads else (SYSTEM_MODULE, SYSTEM_CACHE)
+    if module in sys.modules or not is_cold(*cache):
         return False
     package_root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
                                                         if p))
     invariants = uses_invariants(built.eq)
     first = f"import {INVARIANT_MODULE}; " if invariants else ""
-    loops = () if invariants else ("reaction_loads",)
-    code = f"{first}import {LOADS_MODULE}; from {__name__} import compile_loops; compile_loops({loops!r})"
+    if with_loads:
+        loops = () if invariants else ("reaction_loads",)
+        here = ("runge_kutta",) + (("reaction_loads",) if invariants else ())
+        first += f"import {LOADS_MODULE}; "
+    else:
+        loops, here = ("runge_kutta", "reaction_loads"), ()
+    code = f"{first}from {__name__} import compile_loops; compile_loops({loops!r})"
     child = subprocess.Popen([sys.executable, "-c", code], env=env,
                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                              preexec_fn=die_with_parent_signal if sys.platform.startswith("linux") else None)
     try:
         _compile_system(built)
-        compile_loops(("runge_kutta",) + (("reaction_loads",) if invariants else ()))
+        compile_loops(here)
         child.wait()
     finally:
         if child.poll() is None:
