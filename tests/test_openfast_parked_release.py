@@ -66,3 +66,14 @@ def test_parked_release_accelerations_and_loads(runs):
     assert out.attrs["units"]["NcIMUTAxs"] == "m/s^2"
     ratio = {name: f.NcIMUTAxs.std() / f.YawBrTAxp.std() for name, f in (("modesel", out), ("OpenFAST", ref))}
     assert ratio["OpenFAST"] > 1.02 and ratio["modesel"] == pytest.approx(ratio["OpenFAST"], rel=2e-3), ratio
+
+
+def test_coordinates_held_fixed_are_written_as_openfast_writes_them(runs):
+    """GenDOF off holds the generator azimuth: OpenFAST still writes Q_GeAz
+    (ElastoDyn's convention, 0 with blade 1 at -90 deg: 3 pi / 2 here, blade 1
+    up) and QD_GeAz = 0; so does modesel, for every coordinate it holds."""
+    scene, ref, out = runs
+    assert "GeAz" not in build(scene).model.system.free
+    for name in ("Q_GeAz", "QD_GeAz"):
+        np.testing.assert_allclose(out[name], np.interp(out.Time, ref.Time, ref[name]), rtol=0, atol=1e-6)
+    assert out.attrs["units"]["Q_GeAz"] == "rad" and out.attrs["units"]["QD_GeAz"] == "rad/s"

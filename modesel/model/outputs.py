@@ -58,7 +58,7 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
-from modesel.vocabulary import dof_unit
+from modesel.vocabulary import dof_unit, parse_dof
 
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
 #: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
@@ -207,8 +207,6 @@ def channels(built, integ, wanted=None):
     data = {"Time": t}
     for i, n in enumerate(names):
         data[f"Q_{n}"] = integ.q[:, i]
-    if "GeAz" in idx:     # ElastoDyn's generator azimuth: 0 with blade 1 at -90 deg, in [0, 2 pi)
-        data["Q_GeAz"] = np.mod(integ.q[:, idx["GeAz"]] - 0.5 * np.pi, 2.0 * np.pi)
     for i, n in enumerate(names):
         data[f"QD_{n}"] = integ.qd[:, i]
 
@@ -221,6 +219,14 @@ def channels(built, integ, wanted=None):
             return vals[:, 0], vals[:, 1]
         v = model.system.fixed.get(name, 0.0)
         return np.full_like(t, v), np.zeros_like(t)
+
+    # the coordinates held at a value or turned at a constant speed (e.g. GeAz with
+    # ElastoDyn's GenDOF off), which OpenFAST writes as well: Q_<dof>, QD_<dof>
+    for n in [*model.system.prescribed, *model.system.fixed]:
+        if parse_dof(n).kind != "reaction" and (wanted is None or {f"Q_{n}", f"QD_{n}"} & set(wanted)):
+            data[f"Q_{n}"], data[f"QD_{n}"] = coord(n)
+    if "Q_GeAz" in data:  # ElastoDyn's generator azimuth: 0 with blade 1 at -90 deg, in [0, 2 pi)
+        data["Q_GeAz"] = np.mod(data["Q_GeAz"] - 0.5 * np.pi, 2.0 * np.pi)
 
     ge, ged = coord("GeAz")
     dt_, dtd = coord("DrTr")
