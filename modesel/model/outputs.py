@@ -275,18 +275,27 @@ def tip_deflections(model, coord, t) -> dict:
         tip = model.tips.get(f"blade{b}")
         if not tip or not tip["displacement"]:
             continue
-        disp = np.zeros((len(t), 3))
-        for d, vec in tip["displacement"].items():
-            disp += np.outer(coord(d)[0], vec)
-        if tip.get("shortening") is not None:
-            dofs, G = tip["shortening"]
-            q = np.column_stack([coord(d)[0] for d in dofs])
-            disp[:, 2] -= 0.5 * np.einsum("ti,ij,tj->t", q, np.asarray(G), q)
+        disp = tip_displacement(tip, coord, len(t))
         coned = disp @ turn.T
         out[f"TipDxb{b}"], out[f"TipDyb{b}"] = disp[:, 0], disp[:, 1]
         out[f"OoPDefl{b}"], out[f"IPDefl{b}"] = coned[:, 0], coned[:, 1]
         out[f"TipDxc{b}"], out[f"TipDyc{b}"], out[f"TipDzc{b}"] = coned[:, 0], coned[:, 1], coned[:, 2]
     return out
+
+
+def tip_displacement(tip: dict, coord, n: int) -> np.ndarray:
+    """(n, 3) displacement [m] of a flexible body's tip (`model.tips` entry)
+    in the body's frame over the output times: the coordinates' tip
+    displacement vectors plus the axial shortening -1/2 q^T G q along z.
+    coord: name -> (values, rates) over the n times."""
+    disp = np.zeros((n, 3))
+    for d, vec in tip["displacement"].items():
+        disp += np.outer(coord(d)[0], vec)
+    if tip.get("shortening") is not None:
+        dofs, G = tip["shortening"]
+        q = np.column_stack([coord(d)[0] for d in dofs])
+        disp[:, 2] -= 0.5 * np.einsum("ti,ij,tj->t", q, np.asarray(G), q)
+    return disp
 
 
 def tower_top_deflection(model, coord) -> dict:
@@ -303,13 +312,7 @@ def tower_top_deflection(model, coord) -> dict:
     tip = model.tips.get("tower")
     if tip and tip["displacement"]:
         n = len(coord(next(iter(tip["displacement"])))[0])
-        disp = np.zeros((n, 3))
-        for d, vec in tip["displacement"].items():
-            disp += np.outer(coord(d)[0], vec)
-        if tip.get("shortening") is not None:
-            dofs, G = tip["shortening"]
-            q = np.column_stack([coord(d)[0] for d in dofs])
-            disp[:, 2] -= 0.5 * np.einsum("ti,ij,tj->t", q, np.asarray(G), q)
+        disp = tip_displacement(tip, coord, n)
         angle = {k: sum((coord(d)[0] * c for d, c in tip[k].items()), np.zeros(n))
                  for k in ("slope_y", "slope_x", "twist")}
         R = _rotations(1, angle["slope_y"]) @ _rotations(0, angle["slope_x"]) @ _rotations(2, angle["twist"])
