@@ -56,6 +56,21 @@ def test_openfast_binary_reference():
     assert ref.channels["Q_TSS1"][0] == pytest.approx(2.0, abs=1e-6)
 
 
+def test_a_channel_under_another_of_elastodyns_names(tmp_path):
+    """A compared channel the reference file holds under another of
+    ElastoDyn's names of the same output (RootMEdg1 = RootMxb1, YawBrTDxt =
+    TTDspFA; matched without case) is read from that column; an explicit
+    mapping still wins, and a name of no computed output stays unknown."""
+    t = np.linspace(0.0, 1.0, 5)
+    path = write_csv(tmp_path / "ref.csv", {"Time": t, "RootMxb1": 2 * t, "YAWBRTDXT": 3 * t, "Other": t})
+    ref = load_reference(path, "csv", ["RootMEdg1", "TTDspFA", "Q_TFA1"], mapping={"Q_TFA1": "Other"})
+    np.testing.assert_array_equal(ref.channels["RootMEdg1"], 2 * t)
+    np.testing.assert_array_equal(ref.channels["TTDspFA"], 3 * t)
+    assert ref.info["channels"] == {"RootMEdg1": "RootMxb1", "TTDspFA": "YAWBRTDXT", "Q_TFA1": "Other"}
+    with pytest.raises(ModeselError, match="RootMzc1"):
+        load_reference(path, "csv", ["RootMzc1"])
+
+
 def test_unit_conversion_and_mismatch():
     assert unit_factor("deg", "rad") == pytest.approx(math.pi / 180)
     assert unit_factor("(rpm)", "rad/s") == pytest.approx(math.pi / 30)

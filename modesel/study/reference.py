@@ -245,9 +245,21 @@ def unwrapped_azimuth(values, unit: str, file: str) -> np.ndarray:
     return np.unwrap(factor * np.asarray(values, dtype=float))
 
 
+def _same_output(name: str, columns) -> str | None:
+    """The column of `columns` that is another of ElastoDyn's names of the
+    output `name` names (RootMxb1 for RootMEdg1, matched without case:
+    `model.outputs.canonical_channel`), None if there is none."""
+    from modesel.model.outputs import canonical_channel
+    target = canonical_channel(name).upper()
+    return next((c for c in columns if canonical_channel(str(c)).upper() == target), None)
+
+
 def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | None = None,
                    time_offset: float = 0.0, window=None, scene: str = "") -> Reference:
-    """Read and check a reference file; `mapping` {sim name: file name} renames channels."""
+    """Read and check a reference file; `mapping` {sim name: file name} renames
+    channels; a compared channel the file lacks is read from its column under
+    another of ElastoDyn's names of the same output (OpenFAST writes the name
+    its OutList gives), if it has one."""
     mapping = mapping or {}
     file = str(path)
     df = read_reference_table(path, kind)
@@ -257,11 +269,15 @@ def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | Non
     _check_time(time, file)
     units_in_file = df.attrs.get("units", {}) or {}
     values, units = {}, {}
+    used = {}
     for ch in channels:
         name = mapping.get(ch, ch)
         sign = 1.0
         if name.startswith("-"):          # "-Q_TSS1": the file's channel, negated
             sign, name = -1.0, name[1:]
+        if ch not in mapping and name not in df.columns:
+            name = _same_output(name, df.columns) or name
+        used[ch] = ("-" if sign < 0 else "") + name
         values[ch] = sign * _column(df, name, file)
         if units_in_file.get(name):
             units[ch] = units_in_file[name]
@@ -269,7 +285,7 @@ def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | Non
     if "Azimuth" in df.columns:      # for metrics compared against azimuth (periodic)
         azimuth = unwrapped_azimuth(_column(df, "Azimuth", file), units_in_file.get("Azimuth", "deg"), file)
     return Reference(scene, file, time + float(time_offset), values, units,
-                     {"kind": kind, "channels": {ch: mapping.get(ch, ch) for ch in channels}},
+                     {"kind": kind, "channels": used},
                      None if window is None else tuple(window), azimuth)
 
 
