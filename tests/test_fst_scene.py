@@ -621,3 +621,18 @@ def test_vectorised_rotations_are_the_elementary_ones():
     for axis in range(3):
         expected = np.array([elementary_rotation(axis, a) for a in angles])
         assert np.allclose(_rotations(axis, angles), expected, rtol=0, atol=1e-15), axis
+
+
+def test_rigid_tower_writes_what_openfast_writes(tmp_path):
+    """ElastoDyn's tower DOFs off: the tower-top deflection, its acceleration
+    and the nacelle IMU's (fixed yaw) and the switched-off DOFs' Q_/QD_ are
+    0 throughout, as OpenFAST writes them (an OpenFAST run of this edit: all
+    0 there too); the blades still deflect."""
+    fst = copy_case(tmp_path)
+    for label in ("TwFADOF1", "TwFADOF2", "TwSSDOF1", "TwSSDOF2"):
+        edit(fst.parent / "steady_08_ElastoDyn.dat", label, "False")
+    out = simulate(load_scene(fst), tmax=0.5).outputs
+    for name in ("YawBrTDxp", "YawBrTDyp", "YawBrTDzp", "YawBrTAxp", "YawBrTAyp", "NcIMUTAxs", "Q_TFA1", "Q_TFA2",
+                 "Q_TSS1", "Q_TSS2", "QD_TFA1", "QD_TSS1", "TTDspFA"):
+        assert np.all(out[name] == 0.0), name
+    assert out.OoPDefl1.abs().max() > 0.1

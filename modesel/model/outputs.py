@@ -153,6 +153,28 @@ def wind_channels(built, times, points, wanted=None) -> dict:
     return {name: out[:, j // 3, j % 3].copy() for j, name in enumerate(names)}
 
 
+def switched_off_dofs(requested, columns: dict, coordinates) -> dict:
+    """Q_<dof> and QD_<dof> [m, m/s] of the elastic DOFs an OpenFAST case's
+    ElastoDyn switches off (TwFADOF1 False: TFA1, ...) that its OutList
+    `requested` names: 0 throughout, as ElastoDyn holds a switched-off DOF
+    at 0 (ElastoDyn.f90 InitBlDefl and the tower's initial state) and
+    OpenFAST writes it. Only names of elastic DOFs (vocabulary) absent from
+    `coordinates` (the model's) and from `columns`."""
+    n = len(columns["Time"])
+    out = {}
+    for name in requested:
+        prefix, _, dof = name.partition("_")
+        if prefix not in ("Q", "QD") or name in columns or dof in coordinates:
+            continue
+        try:
+            elastic = parse_dof(dof).kind == "elastic" and parse_dof(dof).multiblade is None
+        except ValueError:
+            continue
+        if elastic:
+            out[name] = np.zeros(n)
+    return out
+
+
 def canonical_channel(name: str) -> str:
     """modesel's name of channel `name` (itself, or the channel an ElastoDyn alias names)."""
     return _ALIAS_OF.get(name.upper(), name)
@@ -273,9 +295,9 @@ def tip_deflections(model, coord, t) -> dict:
     turn = elementary_rotation(2, -model.pitch)        # pitched blade frame -> coned frame
     for b in range(1, model.turbine.num_blades + 1):
         tip = model.tips.get(f"blade{b}")
-        if not tip or not tip["displacement"]:
+        if not tip:
             continue
-        disp = tip_displacement(tip, coord, len(t))
+        disp = tip_displacement(tip, coord, len(t))     # 0 for a rigid blade, as OpenFAST writes it
         coned = disp @ turn.T
         out[f"TipDxb{b}"], out[f"TipDyb{b}"] = disp[:, 0], disp[:, 1]
         out[f"OoPDefl{b}"], out[f"IPDefl{b}"] = coned[:, 0], coned[:, 1]
@@ -310,8 +332,8 @@ def tower_top_deflection(model, coord) -> dict:
     out = {}
     blades = [b for b in range(1, model.turbine.num_blades + 1) if model.tips.get(f"blade{b}")]
     tip = model.tips.get("tower")
-    if tip and tip["displacement"]:
-        n = len(coord(next(iter(tip["displacement"])))[0])
+    if tip:                 # a rigid tower (no field) has none: 0, as OpenFAST writes it
+        n = len(coord("GeAz")[0])
         disp = tip_displacement(tip, coord, n)
         angle = {k: sum((coord(d)[0] * c for d, c in tip[k].items()), np.zeros(n))
                  for k in ("slope_y", "slope_x", "twist")}
@@ -362,21 +384,21 @@ def load_channels(built, integ, wanted=None) -> dict:
     with_channels = [e for e in built.acting if type(e).channels is not Effect.channels
                      and (wanted is None or set(e.CHANNELS) & set(wanted))]
     reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
-    accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else []
-    if not with_channels and not reactions and not accel:
+    accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else None
+    if not with_channels and not reactions and accel is None:
         return {}
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
     if not all(c in getattr(rhs, "channels", {}) for c in names):
-        out, qdd = _reaction_channels(built, integ, reactions, rhs, accel) if reactions or accel else ({}, {})
+        out, qdd = _reaction_channels(built, integ, reactions, rhs, accel or ()) if reactions or accel else ({}, {})
         out.update(python_effect_channels(built, integ, with_channels))
     else:
         rows = list(reactions.values())
-        values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names, accel)
+        values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names, accel or ())
         out = {n: values[:, k] / 1e3 for k, n in enumerate(reactions)}
-        qdd = {c: values[:, len(rows) + k] for k, c in enumerate(accel)}
-        out.update({n: values[:, len(rows) + len(accel) + k] for k, n in enumerate(names)})
-    if accel:
+        qdd = {c: values[:, len(rows) + k] for k, c in enumerate(accel or ())}
+        out.update({n: values[:, len(rows) + len(accel or ()) + k] for k, n in enumerate(names)})
+    if accel is not None:
         out.update(tower_top_accelerations(built, integ, qdd))
     return out
 
@@ -386,16 +408,17 @@ def load_channels(built, integ, wanted=None) -> dict:
 ACCELERATION_CHANNELS = ("YawBrTAxp", "YawBrTAyp", "YawBrTAzp", "NcIMUTAxs", "NcIMUTAys", "NcIMUTAzs")
 
 
-def _tower_top_coordinates(built) -> list:
+def _tower_top_coordinates(built) -> list | None:
     """The coordinates whose accelerations give the tower top's and the
-    nacelle's motion: the tower tip's and Yaw; [] where the tower has no
-    modes or the tower base moves (a platform coordinate), which this does
-    not cover."""
+    nacelle's motion: the tower tip's and Yaw (none for a rigid tower and a
+    fixed yaw: the accelerations are 0, as OpenFAST writes them); None
+    where the tower base moves (a platform coordinate), which this does not
+    cover."""
     model = built.model
     tip = model.tips.get("tower")
     index = built.eq.index
-    if not tip or not tip["displacement"] or any(d in index for d in ("PtfmSurge", "PtfmPitch")):
-        return []
+    if not tip or any(d in index for d in ("PtfmSurge", "PtfmPitch")):
+        return None
     names = set(tip["displacement"]) | set(tip["slope_x"]) | set(tip["slope_y"]) | set(tip["twist"])
     if tip.get("shortening") is not None:
         names |= set(tip["shortening"][0])

@@ -8,8 +8,8 @@ import numpy as np
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
-from modesel.model.outputs import (canonical_channel, channel_unit, channels, needs_reaction_forces, wind_channels,
-                                   with_aliases)
+from modesel.model.outputs import (canonical_channel, channel_unit, channels, needs_reaction_forces,
+                                   switched_off_dofs, wind_channels, with_aliases)
 from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
@@ -116,6 +116,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         columns = {c: v[keep] for c, v in columns.items()}
     if scene.wind_points:           # an OpenFAST case's InflowWind output points
         columns.update(wind_channels(built, columns["Time"], scene.wind_points, wanted))
+    if scene.out_list and modeset is None:      # the case's own DOFs: those it switches off
+        columns.update(switched_off_dofs(scene.out_list, columns, built.eq.index))
     if scene.out_list or wanted:    # an OpenFAST case's OutList, a search's channels: ElastoDyn's other names
         columns = with_aliases(columns, list(scene.out_list) + list(wanted or ()))
     units = {c: u for c in columns if (u := channel_unit(c)) is not None}
