@@ -636,3 +636,15 @@ def test_rigid_tower_writes_what_openfast_writes(tmp_path):
                  "Q_TSS1", "Q_TSS2", "QD_TFA1", "QD_TSS1", "TTDspFA"):
         assert np.all(out[name] == 0.0), name
     assert out.OoPDefl1.abs().max() > 0.1
+
+
+def test_aerodyn_blade_longer_than_the_structural_blade_is_one_line(tmp_path):
+    """AeroDyn's nodes beyond the structural tip would need the mode shapes
+    past the blade: refused in one line naming AeroDyn (a shorter AeroDyn
+    blade runs, as OpenFAST runs it: tests/test_openfast_more.py)."""
+    fst = copy_case(tmp_path)
+    edit(fst.parent / "steady_08_ElastoDyn.dat", "TipRad", "62.0")     # structural blade 60.5 m, AeroDyn's 61.5 m
+    with pytest.raises(ModeselError, match=r"aerodyn: the AeroDyn blade \(61.4999 m\) is longer than the structural blade "
+                                           r"\(60.5 m\)") as info:
+        simulate(load_scene(fst), tmax=0.1)
+    assert "\n" not in str(info.value)

@@ -160,9 +160,12 @@ class BladeAerodynamics(Effect):
         self.deck = deck
         over = {} if self.options["skew"] is None else {"skew_correction": self.options["skew"]}
         span = deck.blade.span
-        if abs(span[-1] - t.blade.length) > 0.01 * t.blade.length:
-            raise self.error(f"the AeroDyn blade ({span[-1]:g} m) and the structural blade "
-                             f"({t.blade.length:g} m) differ in length", "aerodyn")
+        # AeroDyn's nodes sit on the structural blade by their span from the root (OpenFAST
+        # maps its meshes by position): a shorter AeroDyn blade leaves the outer part without
+        # aerodynamic load, as in OpenFAST; a longer one would reach past the structure
+        if span[-1] > t.blade.length * 1.01:
+            raise self.error(f"the AeroDyn blade ({span[-1]:g} m) is longer than the structural blade "
+                             f"({t.blade.length:g} m)", "aerodyn")
         solver = BemSolver.from_blade(deck.blade, span, num_blades=t.num_blades, hub_radius=t.hub_radius,
                                       precone=float(t.precone[0]),
                                       air_density=(deck.air_density if self.options["air_density"] is None
@@ -388,12 +391,15 @@ def rotor_power(torque, thrust, omega, v, rho, rmax):
 
 def sampled_transfer(stations, at, weights):
     """(nodes, stations) matrix T: node force = sum_a T[i, a] f_a with f
-    interpolated linearly to the node and times its weight (module doc 5)."""
+    interpolated linearly to the node and times its weight (module doc 5);
+    none on a node beyond the stations (a blade longer than AeroDyn's, whose
+    outer part has no aerodynamic load, as in OpenFAST)."""
     lo, frac = _linear_weights(stations, at)
     T = np.zeros((len(at), len(stations)))
     rows = np.arange(len(at))
-    T[rows, lo] += (1.0 - frac) * weights
-    T[rows, lo + 1] += frac * weights
+    inside = (np.asarray(at) >= stations[0] - 1e-9) & (np.asarray(at) <= stations[-1] + 1e-9)
+    T[rows, lo] += (1.0 - frac) * weights * inside
+    T[rows, lo + 1] += frac * weights * inside
     return T
 
 
