@@ -612,17 +612,6 @@ def test_steady_reaction_loads_match_openfast(case):
     assert np.all(out.TwstDefl1 == 0.0) and np.all(ref.TwstDefl1 == 0.0)
 
 
-def test_vectorised_rotations_are_the_elementary_ones():
-    """`outputs._rotations` (the tower-top frame at every output time) against
-    `multibody.rotations.elementary_rotation`, one angle at a time."""
-    from modesel.model.outputs import _rotations
-    from modesel.multibody.rotations import elementary_rotation
-    angles = np.array([0.3, -1.2, 2.0, 0.0])
-    for axis in range(3):
-        expected = np.array([elementary_rotation(axis, a) for a in angles])
-        assert np.allclose(_rotations(axis, angles), expected, rtol=0, atol=1e-15), axis
-
-
 def test_rigid_tower_writes_what_openfast_writes(tmp_path):
     """ElastoDyn's tower DOFs off: the tower-top deflection, its acceleration
     and the nacelle IMU's (fixed yaw) and the switched-off DOFs' Q_/QD_ are

@@ -488,3 +488,15 @@ def test_linear_model_in_one_compiled_call_equals_the_numpy_differences():
     for a, ref in ((compiled.M, numpy_loop.M), (compiled.C, numpy_loop.C), (compiled.K, numpy_loop.K)):
         assert np.all(np.isfinite(a)) and np.max(np.abs(ref)) > 0
         assert np.max(np.abs(a - ref)) <= 1e-9 * np.max(np.abs(ref))
+
+
+def test_elementary_rotation_of_an_array_stacks_the_matrices():
+    """`rotations.elementary_rotation` of n angles (the tower-top frame at every
+    output time, `model.outputs`) is the stack of its matrices one angle at a time."""
+    from modesel.multibody.rotations import elementary_rotation
+    angles = np.array([0.3, -1.2, 2.0, 0.0])
+    for axis in range(3):
+        expected = np.array([elementary_rotation(axis, float(a)) for a in angles])
+        stacked = elementary_rotation(axis, angles)
+        assert stacked.shape == (4, 3, 3)
+        assert np.allclose(stacked, expected, rtol=0, atol=1e-15), axis

@@ -58,6 +58,7 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
+from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
@@ -290,7 +291,6 @@ def tip_deflections(model, coord, t) -> dict:
     The tip displacement is the sum over the blade's coordinates of their
     tip displacement vectors (pitched blade frame) plus the axial
     shortening -1/2 q^T G q, turned by the pitch into the coned frame."""
-    from modesel.multibody.rotations import elementary_rotation
     out = {}
     turn = elementary_rotation(2, -model.pitch)        # pitched blade frame -> coned frame
     for b in range(1, model.turbine.num_blades + 1):
@@ -337,24 +337,13 @@ def tower_top_deflection(model, coord) -> dict:
         disp = tip_displacement(tip, coord, n)
         angle = {k: sum((coord(d)[0] * c for d, c in tip[k].items()), np.zeros(n))
                  for k in ("slope_y", "slope_x", "twist")}
-        R = _rotations(1, angle["slope_y"]) @ _rotations(0, angle["slope_x"]) @ _rotations(2, angle["twist"])
+        R = (elementary_rotation(1, angle["slope_y"]) @ elementary_rotation(0, angle["slope_x"])
+             @ elementary_rotation(2, angle["twist"]))
         local = np.einsum("ti,tij->tj", disp, R)     # components on the tower-top axes (R's columns)
         out["YawBrTDxp"], out["YawBrTDyp"], out["YawBrTDzp"] = local[:, 0], local[:, 1], local[:, 2]
     for b in blades:
         out[f"TipRDzc{b}"] = np.zeros(len(coord("GeAz")[0]))
     return out
-
-
-def _rotations(axis: int, angles) -> np.ndarray:
-    """(n, 3, 3) elementary rotations about `axis` by each of `angles` [rad]
-    (`multibody.rotations.elementary_rotation`, vectorised)."""
-    c, s = np.cos(angles), np.sin(angles)
-    R = np.zeros((len(c), 3, 3))
-    i, j = [k for k in range(3) if k != axis]
-    R[:, axis, axis] = 1.0
-    R[:, i, i], R[:, j, j] = c, c
-    R[:, i, j], R[:, j, i] = (s, -s) if axis == 1 else (-s, s)
-    return R
 
 
 def shaft_torque(built, coord, rot_speed_rpm) -> dict:
@@ -472,8 +461,8 @@ def tower_top_accelerations(built, integ, qdd) -> dict:
 
     ay, ax = angle("slope_y"), angle("slope_x")
     az = angle("twist", ["Yaw"] if "Yaw" in built.eq.index else [])
-    Ry, Rx, Rz = _rotations(1, ay[0]), _rotations(0, ax[0]), _rotations(2, az[0])
-    R_p = Ry @ Rx @ _rotations(2, angle("twist")[0])
+    Ry, Rx, Rz = elementary_rotation(1, ay[0]), elementary_rotation(0, ax[0]), elementary_rotation(2, az[0])
+    R_p = Ry @ Rx @ elementary_rotation(2, angle("twist")[0])
     ey = np.array([0.0, 1.0, 0.0])
     x1 = Ry[:, :, 0]                                  # Ry e_x
     z2 = (Ry @ Rx)[:, :, 2]                           # Ry Rx e_z
@@ -486,7 +475,7 @@ def tower_top_accelerations(built, integ, qdd) -> dict:
     R_n = Ry @ Rx @ Rz
     rho = R_n @ np.asarray(model.turbine.nacelle_imu, float)
     a_imu = acc + np.cross(alpha, rho) + np.cross(w, np.cross(w, rho))
-    shaft = R_n @ _rotations(1, np.array([-model.turbine.shaft_tilt]))[0]
+    shaft = R_n @ elementary_rotation(1, -model.turbine.shaft_tilt)
     s_imu = np.einsum("ti,tij->tj", a_imu, shaft)
     out.update({"NcIMUTAxs": s_imu[:, 0], "NcIMUTAys": s_imu[:, 1], "NcIMUTAzs": s_imu[:, 2]})
     return out

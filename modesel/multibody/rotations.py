@@ -33,9 +33,17 @@ def cross(a, b):
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
-def elementary_rotation(axis: int, angle: float) -> np.ndarray:
-    """Rotation matrix (body -> parent) about x (0), y (1) or z (2) by `angle` [rad]."""
+def elementary_rotation(axis: int, angle) -> np.ndarray:
+    """Rotation matrix (body -> parent) about x (0), y (1) or z (2) by `angle`
+    [rad]; for an array of n angles, the (n, 3, 3) stack of them."""
     c, s = np.cos(angle), np.sin(angle)
+    if np.ndim(angle):
+        R = np.zeros(np.shape(angle) + (3, 3))
+        i, j = [k for k in range(3) if k != axis]
+        R[..., axis, axis] = 1.0
+        R[..., i, i], R[..., j, j] = c, c
+        R[..., i, j], R[..., j, i] = (s, -s) if axis == 1 else (-s, s)
+        return R
     if axis == 0:
         return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
     if axis == 1:
