@@ -13,6 +13,12 @@ import numpy as np
 from modesel.multibody import implicit, kernel, rk45_tableau
 
 
+def spring_dampers(linear) -> list:
+    """Generalised spring-dampers (row, column, k, c[, neutral]) as 5-tuples,
+    the neutral position 0 where a term leaves it out (`CompiledRHS`)."""
+    return [tuple(term) + (0.0,) * (5 - len(term)) for term in linear]
+
+
 class CompiledRHS:
     """A `KaneEquations` packed for the compiled kernel, with its free,
     prescribed and fixed coordinates.
@@ -52,7 +58,7 @@ class CompiledRHS:
             packed = eq.packed_full if all_rows else eq.packed_free
         self.packed = packed
         n, nf = eq.n_all, len(eq.free_idx)
-        lin = [tuple(term) + (0.0,) * (5 - len(term)) for term in linear]
+        lin = spring_dampers(linear)
         lin_idx = np.array([[eq.index[r], eq.index[c]] for r, c, _, _, _ in lin], np.int64).reshape(-1, 2)
         lin_kc = np.array([[k, c, k * q0] for _, _, k, c, q0 in lin], float).reshape(-1, 3)
         poly = eq.prescribed_polynomials

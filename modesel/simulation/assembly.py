@@ -22,7 +22,7 @@ from modesel.modeset import ModeSet
 from modesel.model.effects import select as select_effects
 from modesel.model.effects.base import BuildSpec
 from modesel.model.template import build_turbine
-from modesel.multibody.compiled import CompiledRHS
+from modesel.multibody.compiled import CompiledRHS, spring_dampers
 from modesel.multibody.kane import KaneEquations
 from modesel.multibody.packing import with_load_points
 from modesel.multibody.system import Prescribed
@@ -79,7 +79,7 @@ class Built:
 
     def __post_init__(self):
         idx = self.eq.index
-        lin = [tuple(term) + (0.0,) * (5 - len(term)) for term in self.linear]   # neutral position default 0
+        lin = spring_dampers(self.linear)
         derived = {"frame_cache": self.frame_cache or FrameCache(self.eq),
                    "_lin_rows": np.array([idx[r] for r, _, _, _, _ in lin], dtype=int),
                    "_lin_cols": np.array([idx[c] for _, c, _, _, _ in lin], dtype=int),
