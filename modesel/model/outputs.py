@@ -216,6 +216,23 @@ def channel_unit(name: str) -> str | None:
     return CHANNEL_UNITS.get(f"{per_blade.group(1)}<b>") if per_blade else None
 
 
+def coordinate_history(model, integ, name, accelerations=None) -> tuple:
+    """(q, qd, qdd) of coordinate `name` over the output times of `integ`:
+    a free one's from the integration (qdd from `accelerations` {name:
+    values} where given, else 0), a prescribed one's from its motion, a
+    fixed one at its value (rates 0)."""
+    t = integ.t
+    free = list(model.system.free)
+    if name in free:
+        i = free.index(name)
+        qdd = (accelerations or {}).get(name, np.zeros_like(t))
+        return integ.q[:, i], integ.qd[:, i], qdd
+    if name in model.system.prescribed:
+        vals = np.array([model.system.prescribed[name](ti)[:3] for ti in t])
+        return vals[:, 0], vals[:, 1], vals[:, 2]
+    return np.full_like(t, model.system.fixed.get(name, 0.0)), np.zeros_like(t), np.zeros_like(t)
+
+
 def channels(built, integ, wanted=None):
     """Channels of `built` (simulation.assembly.Built) along `integ`
     (integrate.Integration): {name: 1-D array over the output times}, 'Time'
@@ -235,13 +252,7 @@ def channels(built, integ, wanted=None):
 
     def coord(name):
         """Value and rate of any coordinate (free, prescribed or fixed)."""
-        if name in idx:
-            return integ.q[:, idx[name]], integ.qd[:, idx[name]]
-        if name in model.system.prescribed:
-            vals = np.array([model.system.prescribed[name](ti)[:2] for ti in t])
-            return vals[:, 0], vals[:, 1]
-        v = model.system.fixed.get(name, 0.0)
-        return np.full_like(t, v), np.zeros_like(t)
+        return coordinate_history(model, integ, name)[:2]
 
     # the coordinates held at a value or turned at a constant speed (e.g. GeAz with
     # ElastoDyn's GenDOF off), which OpenFAST writes as well: Q_<dof>, QD_<dof>
@@ -264,7 +275,7 @@ def channels(built, integ, wanted=None):
     data["TTDspSS"] = -sum((coord(d)[0] for d in ss), np.zeros_like(t))
     data["TTDspTwst"] = np.rad2deg(sum((coord(d)[0] for d in tw), np.zeros_like(t)))
     data.update(tip_deflections(model, coord, t))
-    data.update(tower_top_deflection(model, coord))
+    data.update(tower_top_deflection(model, coord, t))
     for b in range(1, model.turbine.num_blades + 1):
         data[f"BldPitch{b}"] = np.full_like(t, np.rad2deg(model.pitch))
     if "PtfmSurge" in idx or "PtfmSurge" in model.system.fixed:
@@ -320,7 +331,7 @@ def tip_displacement(tip: dict, coord, n: int) -> np.ndarray:
     return disp
 
 
-def tower_top_deflection(model, coord) -> dict:
+def tower_top_deflection(model, coord, t) -> dict:
     """ElastoDyn's YawBrTDxp, YawBrTDyp, YawBrTDzp [m] (ElastoDyn.f90,
     CalcOutput: rOPO on b1, -b3, b2): the vector from the undeflected to the
     deflected tower top (the modes' tip displacements and the axial
@@ -332,8 +343,8 @@ def tower_top_deflection(model, coord) -> dict:
     out = {}
     blades = [b for b in range(1, model.turbine.num_blades + 1) if model.tips.get(f"blade{b}")]
     tip = model.tips.get("tower")
+    n = len(t)
     if tip:                 # a rigid tower (no field) has none: 0, as OpenFAST writes it
-        n = len(coord("GeAz")[0])
         disp = tip_displacement(tip, coord, n)
         angle = {k: sum((coord(d)[0] * c for d, c in tip[k].items()), np.zeros(n))
                  for k in ("slope_y", "slope_x", "twist")}
@@ -342,7 +353,7 @@ def tower_top_deflection(model, coord) -> dict:
         local = np.einsum("ti,tij->tj", disp, R)     # components on the tower-top axes (R's columns)
         out["YawBrTDxp"], out["YawBrTDyp"], out["YawBrTDzp"] = local[:, 0], local[:, 1], local[:, 2]
     for b in blades:
-        out[f"TipRDzc{b}"] = np.zeros(len(coord("GeAz")[0]))
+        out[f"TipRDzc{b}"] = np.zeros(n)
     return out
 
 
@@ -376,17 +387,18 @@ def load_channels(built, integ, wanted=None) -> dict:
     accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else None
     if not with_channels and not reactions and accel is None:
         return {}
+    solved = accel or []        # the coordinates whose accelerations the pass returns
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
     if not all(c in getattr(rhs, "channels", {}) for c in names):
-        out, qdd = _reaction_channels(built, integ, reactions, rhs, accel or ()) if reactions or accel else ({}, {})
+        out, qdd = _reaction_channels(built, integ, reactions, rhs, solved) if reactions or solved else ({}, {})
         out.update(python_effect_channels(built, integ, with_channels))
     else:
         rows = list(reactions.values())
-        values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names, accel or ())
+        values = rhs.outputs(integ.t, integ.q, integ.qd, rows, names, solved)
         out = {n: values[:, k] / 1e3 for k, n in enumerate(reactions)}
-        qdd = {c: values[:, len(rows) + k] for k, c in enumerate(accel or ())}
-        out.update({n: values[:, len(rows) + len(accel or ()) + k] for k, n in enumerate(names)})
+        qdd = {c: values[:, len(rows) + k] for k, c in enumerate(solved)}
+        out.update({n: values[:, len(rows) + len(solved) + k] for k, n in enumerate(names)})
     if accel is not None:
         out.update(tower_top_accelerations(built, integ, qdd))
     return out
@@ -433,18 +445,10 @@ def tower_top_accelerations(built, integ, qdd) -> dict:
     rho = R_n imu from the tower top: a = a_O + alpha x rho + w x (w x rho)."""
     model = built.model
     tip = model.tips["tower"]
-    names = list(model.system.free)
-    idx = {n: i for i, n in enumerate(names)}
     n = len(integ.t)
 
     def state(name):
-        """(q, qd, qdd) of a coordinate over the output times."""
-        if name in idx:
-            return integ.q[:, idx[name]], integ.qd[:, idx[name]], qdd.get(name, np.zeros(n))
-        if name in model.system.prescribed:
-            vals = np.array([model.system.prescribed[name](ti)[:3] for ti in integ.t])
-            return vals[:, 0], vals[:, 1], vals[:, 2]
-        return np.full(n, model.system.fixed.get(name, 0.0)), np.zeros(n), np.zeros(n)
+        return coordinate_history(model, integ, name, qdd)
 
     acc = np.zeros((n, 3))
     for d, vec in tip["displacement"].items():
