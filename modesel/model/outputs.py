@@ -181,20 +181,30 @@ def canonical_channel(name: str) -> str:
     return _ALIAS_OF.get(name.upper(), name)
 
 
+def output_columns(columns) -> dict:
+    """{upper-case modesel name of the output: the first of `columns` that
+    names it}: the columns by output, whatever ElastoDyn name each goes by
+    (matched without case, as ElastoDyn matches)."""
+    index = {}
+    for c in columns:
+        index.setdefault(canonical_channel(str(c)).upper(), c)
+    return index
+
+
 def with_aliases(columns: dict, requested) -> dict:
     """`columns` plus, for each name in `requested` (an OpenFAST case's
-    OutList) that is not a column but an ElastoDyn alias of one (matched
-    without case, as ElastoDyn matches), that column again under the
-    requested name."""
-    have = {c.upper(): c for c in columns}
+    OutList) that is not a column but another ElastoDyn name of one's
+    output (`output_columns`), that column again under the requested name."""
+    have = {c.upper() for c in columns}
+    by_output = output_columns(columns)
     out = dict(columns)
     for name in requested:
         if name.upper() in have:
             continue
-        source = have.get(canonical_channel(name).upper())
+        source = by_output.get(canonical_channel(name).upper())
         if source is not None:
             out[name] = columns[source]
-            have[name.upper()] = name
+            have.add(name.upper())
     return out
 
 

@@ -245,15 +245,6 @@ def unwrapped_azimuth(values, unit: str, file: str) -> np.ndarray:
     return np.unwrap(factor * np.asarray(values, dtype=float))
 
 
-def _same_output(name: str, columns) -> str | None:
-    """The column of `columns` that is another of ElastoDyn's names of the
-    output `name` names (RootMxb1 for RootMEdg1, matched without case:
-    `model.outputs.canonical_channel`), None if there is none."""
-    from modesel.model.outputs import canonical_channel
-    target = canonical_channel(name).upper()
-    return next((c for c in columns if canonical_channel(str(c)).upper() == target), None)
-
-
 def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | None = None,
                    time_offset: float = 0.0, window=None, scene: str = "") -> Reference:
     """Read and check a reference file; `mapping` {sim name: file name} renames
@@ -270,13 +261,16 @@ def load_reference(path: str | Path, kind: str, channels, *, mapping: dict | Non
     units_in_file = df.attrs.get("units", {}) or {}
     values, units = {}, {}
     used = {}
+    by_output = None
     for ch in channels:
         name = mapping.get(ch, ch)
         sign = 1.0
         if name.startswith("-"):          # "-Q_TSS1": the file's channel, negated
             sign, name = -1.0, name[1:]
-        if ch not in mapping and name not in df.columns:
-            name = _same_output(name, df.columns) or name
+        if ch not in mapping and name not in df.columns:    # under another of ElastoDyn's names (RootMxb1 for RootMEdg1)
+            from modesel.model.outputs import canonical_channel, output_columns
+            by_output = by_output or output_columns(df.columns)
+            name = by_output.get(canonical_channel(name).upper(), name)
         used[ch] = ("-" if sign < 0 else "") + name
         values[ch] = sign * _column(df, name, file)
         if units_in_file.get(name):
