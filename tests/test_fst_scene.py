@@ -224,6 +224,25 @@ def test_unsupported_option_is_a_one_line_error(tmp_path, file, label, value, wh
     assert message.startswith(f"{target}: {label}: ") and what in message
 
 
+@pytest.mark.parametrize("label, value, what", [
+    ("TeetDOF", "True", "rotor-teeter DOF"), ("TeetDefl", "2.0", "teetered at a fixed angle"),
+    ("UndSling", "2.0", "HubIner_Teeter must be at least HubMass (UndSling - HubCM)^2")])
+def test_two_bladed_rotor_refuses_the_teeter_hinge(tmp_path, label, value, what):
+    """A two-bladed rotor runs with its teeter locked at 0 (tests/data/openfast_more/two_blader);
+    the teeter DOF, a fixed teeter angle and a hub inertia about the teeter axis
+    below the parallel-axis term (2 m of undersling, HubIner_Teeter 0 in this deck)
+    are one-line errors naming the input. On a three-bladed rotor they are unused, as in ElastoDyn."""
+    fst = copy_case(tmp_path)
+    ed = fst.parent / "steady_08_ElastoDyn.dat"
+    edit(ed, label, value)
+    load_scene(fst)                      # NumBl 3: unused
+    edit(ed, "NumBl", "2")
+    with pytest.raises(ModeselError) as info:
+        load_scene(fst)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{ed}: ") and what in message, message
+
+
 def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     fst = copy_case(tmp_path)
     edit(fst.parent / "steady_08_ServoDyn.dat", "PCMode", "5")

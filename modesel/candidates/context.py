@@ -10,7 +10,7 @@ in ElastoDyn axes (x downwind, y left, z up):
   tower_torsion (yaw) uses I_zz.
 * Positions follow ElastoDyn: nacelle CM at (NacCMxn, NacCMyn, NacCMzn);
   shaft axis c1 = (cos tilt, 0, sin tilt); rotor apex at
-  (0, 0, Twr2Shft) + OverHang c1; hub CM at apex + HubCM c1; blade-mass CM
+  (0, 0, Twr2Shft) + (OverHang - UndSling) c1; hub CM at apex + HubCM c1; blade-mass CM
   at apex + d c1 with d = int m r sin(precone) / int m (coning);
   yaw bearing at the tower top.
 * Nacelle: ElastoDyn gives only NacYIner, about the yaw axis, so the
@@ -20,7 +20,8 @@ in ElastoDyn axes (x downwind, y left, z up):
 * Hub: spins freely on the shaft (generator DOF), so its inertia about the
   shaft axis does not follow a rotation of the tower top and is left out;
   its transverse inertia is HubIner/2 (E - c1 c1^T) (ElastoDyn gives only
-  the axial value; thin-disc approximation).
+  the axial value; thin-disc approximation), plus, for a two-blader, its
+  inertia about the teeter axis averaged over a turn, Hubf2Iner/2 (E - c1 c1^T).
 * Blades: a point mass at their centre of mass, without rotational inertia
   (the BModes/pyBmodes convention). The flexible blades (first flap/edge
   frequencies 0.7-1.1 Hz on the NREL 5-MW) do not follow a rotation of the
@@ -75,10 +76,10 @@ def rna_mass_and_inertia(turbine):
     bodies.append((turbine.yaw_bearing_mass, np.zeros(3), np.zeros((3, 3))))
 
     c1 = np.array([np.cos(turbine.shaft_tilt), 0.0, np.sin(turbine.shaft_tilt)])
-    apex = np.array([0.0, 0.0, turbine.twr2shft]) + turbine.overhang * c1
+    apex = np.array([0.0, 0.0, turbine.twr2shft]) + turbine.apex_overhang * c1
     transverse = np.eye(3) - np.outer(c1, c1)     # spin about c1 excluded
     bodies.append((turbine.hub_mass, apex + turbine.hub_cm * c1,
-                   0.5 * turbine.hub_inertia * transverse))
+                   0.5 * (turbine.hub_inertia + turbine.hub_teeter_inertia) * transverse))
 
     blade = turbine.blade
     span = np.asarray(blade.span, dtype=float)

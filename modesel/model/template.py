@@ -400,14 +400,16 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
 
     # ---- shaft geometry: x_s along the (tilted) shaft, downwind (eq. 17)
     tilt = elementary_rotation(1, -t.shaft_tilt)
-    apex = np.array([0.0, 0.0, t.twr2shft]) + t.overhang * tilt[:, 0]
+    apex = np.array([0.0, 0.0, t.twr2shft]) + t.apex_overhang * tilt[:, 0]
     rotor_angle = {"GeAz": 1.0, "DrTr": 1.0}
     hj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, rotor_angle)],
                translation={SHAFT_THRUST_REACTION: tilt[:, 0].copy()} if reactions else {})
     if reactions:
         reaction_names["RotThrust"] = SHAFT_THRUST_REACTION
+    # hub inertia about its CM: HubIner about the shaft; a two-blader's also about
+    # the teeter axis, y here (perpendicular to blade 1 along z), ElastoDyn's Hubf2Iner f2
     bodies.append(RigidBody("hub", hj, t.hub_mass, np.array([t.hub_cm, 0.0, 0.0]),
-                            np.diag([t.hub_inertia, 0.0, 0.0])))
+                            np.diag([t.hub_inertia, t.hub_teeter_inertia, 0.0])))
     gj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, {"GeAz": t.gearbox_ratio})])
     bodies.append(RigidBody("generator", gj, 0.0, np.zeros(3), np.diag([t.generator_inertia, 0.0, 0.0])))
     if drivetrain == "two_spring":

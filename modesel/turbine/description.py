@@ -17,13 +17,17 @@ class Turbine:
 
     Geometry [m]: `tower_height` (TowerHt, tower top above ground/MSL),
     `tower_base_height` (TowerBsHt), `tip_radius`, `hub_radius`, `overhang`
-    (OverHang, negative upwind), `twr2shft` (Twr2Shft), `nacelle_cm`
+    (OverHang, negative upwind: from the yaw axis to the rotor apex, or to the
+    teeter pin of a two-bladed rotor), `undersling` (UndSling, two-bladed rotors:
+    from the teeter pin to the apex, along the shaft; `apex_overhang` is
+    OverHang - UndSling), `twr2shft` (Twr2Shft), `nacelle_cm`
     (NacCMxn, NacCMyn, NacCMzn), `nacelle_imu` (NcIMUxn, NcIMUyn, NcIMUzn: the
     nacelle IMU from the tower top in the nacelle frame, 0 where the deck has
     none), `hub_cm` (HubCM).
     Angles [rad]: `precone` (PreCone, per blade), `shaft_tilt` (ShftTilt).
     Masses [kg] and inertias [kg m^2]: `hub_mass`, `hub_inertia` (about the
-    shaft), `generator_inertia` (GenIner, about the HSS), `nacelle_mass`,
+    shaft), `hub_teeter_inertia` (two-bladed rotors: about the teeter axis
+    through the hub's CM, ElastoDyn's Hubf2Iner; 0 otherwise), `generator_inertia` (GenIner, about the HSS), `nacelle_mass`,
     `nacelle_yaw_inertia`, `yaw_bearing_mass`, `tip_mass` (per blade),
     `platform_mass`, `platform_inertia` (roll, pitch, yaw), `platform_cm`.
     Drivetrain: `gearbox_ratio`, `gearbox_efficiency` (fraction),
@@ -53,6 +57,8 @@ class Turbine:
     hub_cm: float = 0.0
     hub_mass: float = 0.0
     hub_inertia: float = 0.0
+    hub_teeter_inertia: float = 0.0
+    undersling: float = 0.0
     generator_inertia: float = 0.0
     nacelle_mass: float = 0.0
     nacelle_yaw_inertia: float = 0.0
@@ -75,3 +81,9 @@ class Turbine:
     #: ElastoDyn's analysis nodes per blade / tower (BldNodes, TwrNodes), None if unknown
     blade_nodes: int | None = None
     tower_nodes: int | None = None
+
+    @property
+    def apex_overhang(self) -> float:
+        """Distance from the yaw axis to the rotor apex along the shaft [m]
+        (ElastoDyn: rPQ = -UndSling g1 from the teeter pin at OverHang)."""
+        return self.overhang - self.undersling

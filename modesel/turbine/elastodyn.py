@@ -210,6 +210,7 @@ def read_elastodyn(path) -> Turbine:
         "PtfmHeave": num("PtfmHeave", "PtfmHeave"), "PtfmRoll": deg(num("PtfmRoll", "PtfmRoll")),
         "PtfmPitch": deg(num("PtfmPitch", "PtfmPitch")), "PtfmYaw": deg(num("PtfmYaw", "PtfmYaw")),
     }
+    undersling, hub_teeter_inertia = _two_blader(ed, ed_deck, num_blades, dofs, initial, num)
     return Turbine(
         tower=tower, blade=blade, num_blades=num_blades,
         tower_height=tower_height, tower_base_height=tower_base,
@@ -220,7 +221,8 @@ def read_elastodyn(path) -> Turbine:
         nacelle_cm=(num("NacCMxn", "NacCMxn"), num("NacCMyn", "NacCMyn"), num("NacCMzn", "NacCMzn")),
         nacelle_imu=tuple(num(k, k) if ed.get(k) is not None else 0.0 for k in ("NcIMUxn", "NcIMUyn", "NcIMUzn")),
         hub_cm=num("HubCM", "HubCM"), hub_mass=num("HubMass", "HubMass"),
-        hub_inertia=num("HubIner", "HubIner"), generator_inertia=num("GenIner", "GenIner"),
+        hub_inertia=num("HubIner", "HubIner"), hub_teeter_inertia=hub_teeter_inertia,
+        undersling=undersling, generator_inertia=num("GenIner", "GenIner"),
         nacelle_mass=num("NacMass", "NacMass"), nacelle_yaw_inertia=num("NacYIner", "NacYIner"),
         yaw_bearing_mass=num("YawBrMass", "YawBrMass"),
         tip_mass=tuple(num(f"TipMass({k})", f"TipMass({k})") for k in per_blade),
@@ -333,6 +335,30 @@ def _checked_float(value, label, deck) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
         raise ModeselError(f"non-numeric value {deck.value(label)!r}", file=str(deck.path), field=label)
     return float(value)
+
+
+def _two_blader(ed, deck, num_blades, dofs, initial, num):
+    """(UndSling [m], hub inertia about the teeter axis through the hub's CM
+    [kg m^2]) of a two-bladed rotor, (0, 0) for other rotors, as ElastoDyn
+    sets them (ElastoDyn.f90: UndSling and the teeter inputs are read for
+    NumBl = 2 only; Hubf2Iner = HubIner_Teeter - HubMass (UndSling - HubCM)^2).
+    The teeter hinge itself is not modelled: TeetDOF and a fixed TeetDefl are
+    refused in one line naming the input."""
+    if num_blades != 2:
+        return 0.0, 0.0
+    if dofs.get("TeetDOF"):
+        raise ModeselError("unsupported: the rotor-teeter DOF is not modelled (set TeetDOF to False)",
+                           file=str(deck.path), field="TeetDOF")
+    if initial["TeetDefl"] != 0.0:
+        raise ModeselError("unsupported: a rotor teetered at a fixed angle is not modelled (set TeetDefl to 0)",
+                           file=str(deck.path), field="TeetDefl")
+    undersling = num("UndSling", "UndSling")
+    inertia = num("HubIner_Teeter", "HubIner_Teeter") - num("HubMass", "HubMass") * (undersling - num("HubCM", "HubCM")) ** 2
+    if inertia < 0.0:
+        raise ModeselError(f"HubIner_Teeter must be at least HubMass (UndSling - HubCM)^2 for a two-bladed rotor "
+                           f"(the hub's inertia about the teeter axis through its CM would be {inertia:.4g} kg m^2)",
+                           file=str(deck.path), field="HubIner_Teeter")
+    return undersling, inertia
 
 
 def _number(values: dict, key: str, label: str, deck) -> float:
