@@ -67,8 +67,15 @@ TOWER_LOAD_REACTIONS = {
     "TwrBsMxt": TOWER_BASE_REACTION_X, "TwrBsMyt": TOWER_BASE_REACTION, "TwrBsMzt": "TwrBsRzt",
     "YawBrFxp": "YawBrTxp", "YawBrFyp": "YawBrTyp", "YawBrFzp": "YawBrTzp",
     "YawBrMxp": "YawBrRxp", "YawBrMyp": "YawBrRyp", "YawBrMzp": "YawBrRzp"}
+#: ElastoDyn's low-speed shaft loads at the shaft tip (the rotor apex; kN, kN m), in
+#: the nonrotating shaft frame s (y_s to the left, z_s up, both normal to the shaft):
+#: each the generalised force of a reaction coordinate of the hub's joint, a
+#: translation (T) along or a rotation (R) about y_s or z_s
+SHAFT_LOAD_REACTIONS = {"LSShftFys": "LSShftTys", "LSShftFzs": "LSShftTzs",
+                        "LSSTipMys": "LSSTipRys", "LSSTipMzs": "LSSTipRzs"}
 REACTIONS = (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X, SHAFT_THRUST_REACTION) + tuple(
-    c for c in TOWER_LOAD_REACTIONS.values() if c not in (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X))
+    c for c in TOWER_LOAD_REACTIONS.values() if c not in (TOWER_BASE_REACTION, TOWER_BASE_REACTION_X)) + tuple(
+    SHAFT_LOAD_REACTIONS.values())
 MULTIBLADE_PARTS = ("coll", "cos", "sin")
 #: rigid coordinates measured in m (the others in rad)
 TRANSLATIONS = ("PtfmSurge",)

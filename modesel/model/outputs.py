@@ -81,6 +81,9 @@ CHANNEL_UNITS = {
     "YawBrTDxp": "m", "YawBrTDyp": "m", "YawBrTDzp": "m", "TipRDzc<b>": "deg",
     "YawBrTAxp": "m/s^2", "YawBrTAyp": "m/s^2", "YawBrTAzp": "m/s^2", "NcIMUTAxs": "m/s^2", "NcIMUTAys": "m/s^2",
     "NcIMUTAzs": "m/s^2",
+    "LSShftFys": "kN", "LSShftFzs": "kN", "LSShftFya": "kN", "LSShftFza": "kN",
+    "LSSTipMys": "kN-m", "LSSTipMzs": "kN-m", "LSSTipMya": "kN-m", "LSSTipMza": "kN-m",
+    "LSSGagMys": "kN-m", "LSSGagMzs": "kN-m", "LSSGagMya": "kN-m", "LSSGagMza": "kN-m",
 }
 
 
@@ -99,6 +102,8 @@ CHANNEL_ALIASES = {
     "YawBrFzp": ("YawBrFzn",), "YawBrMzp": ("YawBrMzn",), "TipRDzc<b>": ("TipRDzb<b>", "TwstDefl<b>"),
     "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
     "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
+    "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
+    "LSShftFzs": ("LSSGagFzs",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
 }
 _ALIAS_OF = {}
@@ -111,7 +116,13 @@ for _name, _aliases in CHANNEL_ALIASES.items():
 #: the blade-root loads in the pitched frame b and their coned-frame (x, y) sources
 PITCHED_ROOT_LOADS = {"RootMxb": ("RootMxc", "RootMyc"), "RootMyb": ("RootMxc", "RootMyc"),
                       "RootFxb": ("RootFxc", "RootFyc"), "RootFyb": ("RootFxc", "RootFyc")}
-_FORCE_CHANNELS = re.compile(r"(TwrBs(F[xyz]|Mz)t|YawBr[FM][xyz]p|Root(F[xyz]|Mz)c\d|Root[MF][xy]b\d)")
+#: the low-speed shaft's loads in the rotating frame a and at the strain gauges, all
+#: from the nonrotating loads at the shaft tip (`shaft_loads`)
+SHAFT_LOAD_SOURCES = ("LSShftFys", "LSShftFzs", "LSSTipMys", "LSSTipMzs")
+SHAFT_LOADS = ("LSShftFya", "LSShftFza", "LSSTipMya", "LSSTipMza", "LSSGagMya", "LSSGagMza", "LSSGagMys",
+               "LSSGagMzs")
+_FORCE_CHANNELS = re.compile(r"(TwrBs(F[xyz]|Mz)t|YawBr[FM][xyz]p|Root(F[xyz]|Mz)c\d|Root[MF][xy]b\d|"
+                             r"LSShftF[yz][as]|LSS(Tip|Gag)M[yz][as])")
 
 
 def needs_reaction_forces(wanted) -> bool:
@@ -295,12 +306,43 @@ def channels(built, integ, wanted=None):
     if "Yaw" in idx or "Yaw" in model.system.fixed:
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
     data.update(shaft_torque(built, coord, data["RotSpeed"]))
-    if wanted is not None:      # the coned-frame sources of the pitched-frame root loads
+    if wanted is not None:      # the coned-frame sources of the pitched-frame root loads, the shaft's
         wanted = set(wanted) | {f"{src}{n[-1]}" for n in wanted if n[:-1] in PITCHED_ROOT_LOADS
                                 for src in PITCHED_ROOT_LOADS[n[:-1]]}
+        if wanted & set(SHAFT_LOADS):
+            wanted |= set(SHAFT_LOAD_SOURCES)
     data.update(load_channels(built, integ, wanted))
     data.update(pitched_root_loads(data, model.pitch, wanted))
+    data.update(shaft_loads(data, model.turbine, wanted))
     return data
+
+
+def shaft_loads(data: dict, turbine, wanted=None) -> dict:
+    """ElastoDyn's low-speed shaft loads (ElastoDyn.f90 CalcOutput) from
+    the nonrotating loads the rotor exerts at the apex in `data` (LSShftFys,
+    LSShftFzs [kN], LSSTipMys, LSSTipMzs [kN m]; frame s: y_s to the left, z_s
+    up, normal to the shaft), those in `wanted` unless None:
+    - the shaft tip is a two-blader's teeter pin, UndSling downwind of the
+      apex (rPQ = -UndSling c1): M_P = M_Q - UndSling c1 x F;
+    - the rotating frame a turns with the rotor, y_a = cos(Azimuth) y_s +
+      sin(Azimuth) z_s, z_a along blade 1's axis (Azimuth as output: 0 with
+      blade 1 up): LSShftFya, LSShftFza, LSSTipMya, LSSTipMza;
+    - at the strain gauges ShftGagL upwind of the tip: LSSGagMya = LSSTipMya
+      + ShftGagL LSShftFza, LSSGagMza = LSSTipMza - ShftGagL LSShftFya, and
+      the same in frame s."""
+    if any(data.get(n) is None for n in SHAFT_LOAD_SOURCES) or "Azimuth" not in data:
+        return {}
+    fy, fz, my, mz = (data[n] for n in SHAFT_LOAD_SOURCES)
+    my, mz = my + turbine.undersling * fz, mz - turbine.undersling * fy
+    az = np.deg2rad(data["Azimuth"])
+    c, s = np.cos(az), np.sin(az)
+    out = {"LSSTipMys": my, "LSSTipMzs": mz, "LSShftFya": c * fy + s * fz, "LSShftFza": -s * fy + c * fz,
+           "LSSTipMya": c * my + s * mz, "LSSTipMza": -s * my + c * mz}
+    g = turbine.shaft_gage
+    for frame, forces in (("a", (out["LSShftFya"], out["LSShftFza"])), ("s", (fy, fz))):
+        out[f"LSSGagMy{frame}"] = out[f"LSSTipMy{frame}"] + g * forces[1]
+        out[f"LSSGagMz{frame}"] = out[f"LSSTipMz{frame}"] - g * forces[0]
+    return {k: v for k, v in out.items() if wanted is None or k in wanted or k in SHAFT_LOAD_SOURCES}
 
 
 def tip_deflections(model, coord, t) -> dict:

@@ -59,7 +59,10 @@ about z at the tower base (TwrBsFxt, TwrBsFyt, TwrBsFzt, TwrBsMzt) and at each
 blade root in the coned frame (RootFxc<b>, RootFyc<b>, RootFzc<b>, RootMzc<b>,
 the last about the pitch axis), and all six at the yaw bearing in the
 tower-top frame p, which the tower's deflection turns but the yaw does not
-(YawBrFxp ... YawBrMzp). The yaw bearing is then a body of its own,
+(YawBrFxp ... YawBrMzp); and at the shaft tip (the rotor apex) translations
+along and rotations about the nonrotating shaft frame's y_s and z_s
+(LSShftFys, LSShftFzs, LSSTipMys, LSSTipMzs, vocabulary SHAFT_LOAD_REACTIONS;
+the rotating and strain-gauge components follow in outputs.py). The yaw bearing is then a body of its own,
 carrying the yaw-bearing mass (YawBrMass, at the tower top) that ElastoDyn
 counts below the bearing's loads, and the nacelle joins it.
 """
@@ -79,7 +82,7 @@ from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_fle
 from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
 from modesel.multibody.system import System
 from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION, TOWER_BASE_REACTION,
-                                TOWER_BASE_REACTION_X, TOWER_FIELDS, TOWER_LOAD_REACTIONS, field_dofs, is_blade_body, is_blade_field,
+                                TOWER_BASE_REACTION_X, TOWER_FIELDS, TOWER_LOAD_REACTIONS, SHAFT_LOAD_REACTIONS, field_dofs, is_blade_body, is_blade_field,
                                 root_reaction)
 
 DRIVETRAINS = ("elastodyn", "two_spring")
@@ -402,8 +405,16 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     tilt = elementary_rotation(1, -t.shaft_tilt)
     apex = np.array([0.0, 0.0, t.twr2shft]) + t.apex_overhang * tilt[:, 0]
     rotor_angle = {"GeAz": 1.0, "DrTr": 1.0}
-    hj = Joint("nacelle", apex, tilt, rotations=[Rotation(0, rotor_angle)],
-               translation={SHAFT_THRUST_REACTION: tilt[:, 0].copy()} if reactions else {})
+    shaft_moves = {SHAFT_THRUST_REACTION: tilt[:, 0].copy()} if reactions else {}
+    shaft_turns = []
+    if reaction_forces:
+        # the shaft tip's remaining loads in the nonrotating frame s: translations along
+        # and rotations about y_s and z_s, ahead of the rotor's spin about x_s
+        names = SHAFT_LOAD_REACTIONS
+        shaft_moves.update({names["LSShftFys"]: tilt[:, 1].copy(), names["LSShftFzs"]: tilt[:, 2].copy()})
+        shaft_turns = [Rotation(1, {names["LSSTipMys"]: 1.0}), Rotation(2, {names["LSSTipMzs"]: 1.0})]
+        reaction_names.update(names)
+    hj = Joint("nacelle", apex, tilt, rotations=shaft_turns + [Rotation(0, rotor_angle)], translation=shaft_moves)
     if reactions:
         reaction_names["RotThrust"] = SHAFT_THRUST_REACTION
     # hub inertia about its CM: HubIner about the shaft; a two-blader's also about

@@ -20,7 +20,8 @@ class Turbine:
     (OverHang, negative upwind: from the yaw axis to the rotor apex, or to the
     teeter pin of a two-bladed rotor), `undersling` (UndSling, two-bladed rotors:
     from the teeter pin to the apex, along the shaft; `apex_overhang` is
-    OverHang - UndSling), `twr2shft` (Twr2Shft), `nacelle_cm`
+    OverHang - UndSling), `shaft_gage` (ShftGagL: from the apex or teeter pin
+    to the shaft's strain gauges, positive upwind), `twr2shft` (Twr2Shft), `nacelle_cm`
     (NacCMxn, NacCMyn, NacCMzn), `nacelle_imu` (NcIMUxn, NcIMUyn, NcIMUzn: the
     nacelle IMU from the tower top in the nacelle frame, 0 where the deck has
     none), `hub_cm` (HubCM).
@@ -59,6 +60,7 @@ class Turbine:
     hub_inertia: float = 0.0
     hub_teeter_inertia: float = 0.0
     undersling: float = 0.0
+    shaft_gage: float = 0.0
     generator_inertia: float = 0.0
     nacelle_mass: float = 0.0
     nacelle_yaw_inertia: float = 0.0

@@ -217,7 +217,7 @@ def read_elastodyn(path) -> Turbine:
         tip_radius=tip_radius, hub_radius=hub_radius,
         precone=tuple(deg(num(f"PreCone({k})", f"PreCone({k})")) for k in per_blade),
         shaft_tilt=deg(num("ShftTilt", "ShftTilt")), overhang=num("OverHang", "OverHang"),
-        twr2shft=num("Twr2Shft", "Twr2Shft"),
+        twr2shft=num("Twr2Shft", "Twr2Shft"), shaft_gage=num("ShftGagL", "ShftGagL"),
         nacelle_cm=(num("NacCMxn", "NacCMxn"), num("NacCMyn", "NacCMyn"), num("NacCMzn", "NacCMzn")),
         nacelle_imu=tuple(num(k, k) if ed.get(k) is not None else 0.0 for k in ("NcIMUxn", "NcIMUyn", "NcIMUzn")),
         hub_cm=num("HubCM", "HubCM"), hub_mass=num("HubMass", "HubMass"),
