@@ -10,7 +10,8 @@ for 3-component velocities the vertical component is discarded.
 
 Diameter and drag coefficient come from the AeroDyn table (TwrElev [m above
 ground / MSL], TwrDiam [m], TwrCd [-]), linearly interpolated and held
-constant beyond the table ends. Without a table, `TowerDrag.nrel5mw_default`
+constant beyond the table ends (the `tower_drag` effect loads only the span
+the table covers, as OpenFAST). Without a table, `TowerDrag.nrel5mw_default`
 gives the NREL 5-MW values (diameter 6 m at the base to 3.87 m at the top,
 Cd = 1.0; Jonkman et al. 2009, NREL/TP-500-38060).
 

@@ -16,8 +16,10 @@ horizontal speed, AngleH direction [positive rotates the flow towards -y],
 VelV vertical speed, ShrH linear horizontal shear, ShrV power-law exponent,
 LinShrV linear vertical shear, VelGust gust speed, optional AngleV upflow).
 Steady wind (WindType 1) is the single row (0, HWindSpeed, 0, 0, 0, PLExp,
-0, 0, 0) with RefLength 1. Below or at the ground (z <= 0) the velocity is
-zero (InflowWind refuses such points).
+0, 0, 0) with RefLength 1. At or below the ground the velocity is zero, as
+InflowWind's (`UniformField_GetVel` is called for z > 0 only): z <= GROUND,
+1 nm, so that a point placed on the ground (AeroDyn's tower station at
+TwrElev 0), which the kinematics put at 2e-15 m, is on it.
 
 The short form of a scene's [effects.wind] (`speed`, `shear`,
 `direction` from x towards +y, `time_series` of (t, speed)) is the table
@@ -28,6 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+#: height [m] at or below which a point is on the ground (module doc)
+GROUND = 1e-9
 
 from modesel.errors import ModeselError
 
@@ -132,7 +137,7 @@ class Wind:
             rows = rows[0]
         v1 = horizontal_speed(z, 0.0, rows[..., 1], 0.0, rows[..., 5], rows[..., 6], rows[..., 7],
                               self.reference_height, self.reference_length)
-        return np.where(z > 0, v1, 0.0)
+        return np.where(z > GROUND, v1, 0.0)
 
     def vector(self, z, t=0.0, x=0.0, y=0.0):
         """Wind velocity vectors (..., 3) [m/s] at points (x, y, z) and time t
@@ -141,7 +146,7 @@ class Wind:
         z = np.asarray(z, float)
         x, y = np.broadcast_to(x, z.shape).astype(float), np.broadcast_to(y, z.shape).astype(float)
         vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = self.params(float(t))
-        above = z > 0.0
+        above = z > GROUND
         v1 = horizontal_speed(z, y * ch + x * sh, vh, shr_h, shr_v, lin_v, gust, zr, lr)
         v1r = cv * v1 - sv * vv
         out = np.stack([v1r * ch, -v1r * sh, sv * v1 + cv * vv], axis=-1)
@@ -153,14 +158,14 @@ def horizontal_speed(z, lateral, vh, shr_h, shr_v, lin_v, gust, zr, lr):
     ground (z <= 0 gives a finite placeholder; callers zero it), `lateral` =
     y cos AngleH + x sin AngleH [m], the table's VelH, ShrH, ShrV, LinShrV,
     VelGust, RefHt zr [m] and RefLength lr [m]."""
-    ratio = np.where(z > 0.0, z, zr) / zr
+    ratio = np.where(z > GROUND, z, zr) / zr
     return vh * (ratio ** shr_v + (shr_h * lateral + lin_v * (z - zr)) / lr) + gust
 
 
 @njit(cache=True)
 def wind_velocity(p, x, y, z):
     """(u, v, w) [m/s] at (x, y, z) for parameters p = Wind.params(t) (module doc)."""
-    if z <= 0.0:
+    if z <= GROUND:
         return 0.0, 0.0, 0.0
     vh, ch, sh_, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = (p[0], p[1], p[2], p[3], p[4], p[5],
                                                                   p[6], p[7], p[8], p[9], p[10], p[11])

@@ -68,7 +68,7 @@ CHANNEL_UNITS = {
     "TTDspFA": "m", "TTDspSS": "m", "TTDspTwst": "deg", "OoPDefl<b>": "m", "IPDefl<b>": "m",
     "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDzc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
     "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg", "BldPitch<b>": "deg",
-    "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "GenTq": "kN-m",
+    "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "HSShftPwr": "kW", "GenTq": "kN-m",
     "GenPwr": "kW", "RotPwr": "kW",
     "TwrBsMyt": "kN-m", "TwrBsMxt": "kN-m", "RootMyc<b>": "kN-m", "RootMxc<b>": "kN-m",
     "TwrBsMzt": "kN-m", "TwrBsFxt": "kN", "TwrBsFyt": "kN", "TwrBsFzt": "kN",
@@ -314,7 +314,26 @@ def channels(built, integ, wanted=None):
     data.update(load_channels(built, integ, wanted))
     data.update(pitched_root_loads(data, model.pitch, wanted))
     data.update(shaft_loads(data, model.turbine, wanted))
+    data.update(shaft_power(data, model.turbine))
     return data
+
+
+def shaft_power(data: dict, turbine) -> dict:
+    """Where RotTorq [kN m] came from a reaction (a rigid drivetrain, see
+    `shaft_torque` for the spring): LSShftTq, RotPwr [kW] = RotTorq * rotor
+    speed and HSShftTq = RotTorq / GBRatio [kN m]; and, with either,
+    HSShftPwr [kW] = HSShftTq * generator speed (ElastoDyn.f90 CalcOutput;
+    GBoxEff 100 %)."""
+    if "RotTorq" not in data:
+        return {}
+    torque = data["RotTorq"]
+    out = {}
+    if "RotPwr" not in data:
+        out = {"LSShftTq": torque, "RotPwr": torque * data["RotSpeed"] * np.pi / 30.0,
+               "HSShftTq": torque / turbine.gearbox_ratio}
+    hss = out.get("HSShftTq", data.get("HSShftTq"))
+    out["HSShftPwr"] = hss * data["GenSpeed"] * np.pi / 30.0
+    return out
 
 
 def shaft_loads(data: dict, turbine, wanted=None) -> dict:

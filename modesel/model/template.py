@@ -133,6 +133,8 @@ class TurbineModel:
     #: field -> (span grid [m], (count, 3, G) slope of each mode [1/m], pitched
     #: blade frame) on which `station_slopes` interpolates
     blade_slope: dict = field(default_factory=dict)
+    #: the tower uses ElastoDyn's discrete nodes (`elastodyn_nodes`)
+    tower_elastodyn_nodes: bool = False
 
     def blade_tip_displacement(self, dof: str) -> np.ndarray:
         """Tip displacement [m per unit coordinate] of blade DOF `dof` in its
@@ -417,6 +419,10 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     hj = Joint("nacelle", apex, tilt, rotations=shaft_turns + [Rotation(0, rotor_angle)], translation=shaft_moves)
     if reactions:
         reaction_names["RotThrust"] = SHAFT_THRUST_REACTION
+        if "DrTr" not in free and "DrTr" not in prescribed and drivetrain == "elastodyn":
+            # a rigid drivetrain (ElastoDyn's DrTrDOF off): DrTr held at 0 turns the rotor
+            # alone, so its row is the torque the rotor exerts on the shaft (LSShftMxa)
+            reaction_names["RotTorq"] = "DrTr"
     # hub inertia about its CM: HubIner about the shaft; a two-blader's also about
     # the teeter axis, y here (perpendicular to blade 1 along z), ElastoDyn's Hubf2Iner f2
     bodies.append(RigidBody("hub", hj, t.hub_mass, np.array([t.hub_cm, 0.0, 0.0]),
@@ -527,4 +533,4 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
     system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
     return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
                         reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed),
-                        blade_slope)
+                        blade_slope, tower_elastodyn_nodes=bool(tower_ed))

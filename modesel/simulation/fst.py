@@ -9,7 +9,8 @@ What the case's modules become:
   effect; still air (CompInflow = 0) -> zero wind when AeroDyn is on.
 - AeroDyn 15 (CompAero = 2, `turbine.aerodyn.aerodyn_case_options`) -> the `aero`
   effect (BEM, the deck's blade and polars, Pitt/Peters skew per the deck)
-  and, with TwrAero, `tower_drag`; AirDens "default" takes the .fst AirDens.
+  and, with TwrAero, `tower_drag`; AirDens "default" takes the .fst AirDens
+  (for both).
 - ServoDyn (CompServo = 1, `turbine.servodyn.read_servodyn`) -> the `generator`
   effect (ServoDyn's simple variable-speed law or induction generator,
   GenEff, on/off switching) and the pitch held at PitNeut; without
@@ -153,7 +154,11 @@ def scene_from_fst(path):
         if ad["air_density_default"] and "AirDens" in f:
             aero["air_density"] = f.number("AirDens")
         effects["aero"] = aero
-        effects["tower_drag"] = {"aerodyn": str(ad_path.resolve())} if ad["tower_drag"] else False
+        effects["tower_drag"] = False
+        if ad["tower_drag"]:
+            effects["tower_drag"] = {"aerodyn": aero["aerodyn"]}
+            if "air_density" in aero:
+                effects["tower_drag"]["air_density"] = aero["air_density"]
         if f.integer("CompInflow") == 1:
             from modesel.turbine.inflowwind import read_inflowwind
             effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)

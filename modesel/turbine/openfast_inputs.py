@@ -134,6 +134,11 @@ class InputFile:
         return names
 
     def unsupported(self, label: str, what: str):
-        """The one-line error for an option modesel does not model."""
+        """The one-line error for an option modesel does not model: `what`
+        names the feature ("tower shadow"), or, starting with "only", the
+        values that are modelled."""
+        if what.startswith("only "):
+            return self.error(f"{label} = {self.text(label)} is not modelled by modesel ({what}); "
+                              f"choose one of those to simulate this case", label)
         return self.error(f"{label} = {self.text(label)} ({what}) is not modelled by modesel; "
                           f"switch it off to simulate this case", label)

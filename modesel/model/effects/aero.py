@@ -403,6 +403,32 @@ def sampled_transfer(stations, at, weights):
     return T
 
 
+def cell_transfer(stations, at, weights):
+    """(nodes, stations) matrix T: node force = sum_a T[i, a] f_a, the line
+    load, linear between the stations and none beyond them, integrated over
+    each node's cell [at - w/2, at + w/2] (ElastoDyn's nodes: the midpoints
+    of elements of length DHNodes = w). Where the stations cover the nodes'
+    cells this is `sampled_transfer` with the exact integral in place of the
+    midpoint rule; where they end inside a cell, only the covered part
+    counts, so the total force is the line load's. OpenFAST's mapping sends
+    each lumped piece of AeroDyn's line to the nearest ElastoDyn node, i.e.
+    to the node whose cell it lies in (tower drag, effects/tower_drag.py)."""
+    stations = np.asarray(stations, float)
+    at, weights = np.asarray(at, float), np.asarray(weights, float)
+    T = np.zeros((len(at), len(stations)))
+    for i, (z, w) in enumerate(zip(at, weights)):
+        lo, hi = max(z - 0.5 * w, stations[0]), min(z + 0.5 * w, stations[-1])
+        for j in range(len(stations) - 1):
+            a, b = stations[j], stations[j + 1]
+            u, v = max(lo, a), min(hi, b)
+            if v <= u:
+                continue
+            h = b - a
+            T[i, j] += ((b - u) ** 2 - (b - v) ** 2) / (2.0 * h)
+            T[i, j + 1] += ((v - a) ** 2 - (u - a) ** 2) / (2.0 * h)
+    return T
+
+
 def _lumped_transfer(stations, at, structural):
     """(nodes, stations) matrix T of the lumped transfer (module doc 5):
     L (stations, stations) lumps the piecewise-linear line load to point

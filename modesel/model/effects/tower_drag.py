@@ -7,13 +7,19 @@ per unit length (`aero.TowerDrag.load`, here its compiled twin
 (ADTwr_CalcOutput): at the tower stations of the AeroDyn deck (TwrElev,
 its tower nodes), with the tower's own velocity there and the wind at the
 stations' current heights. As OpenFAST maps AeroDyn's tower line load onto
-the structure, the load is linear in between: node k of the tower takes
-F_k = w_k p(z_k) with p interpolated linearly between the stations
-(`effects.aero.sampled_transfer`, w_k the node quadrature weight). Stations are the
-table's elevations on the tower plus its base and top where the table does
-not reach them (diameter and Cd are held constant beyond the table ends, so
-the whole tower is loaded); diameter and Cd are the table's at the
-stations. No tower shadow on the blades. Needs [effects.wind].
+the structure, the load is linear in between. On ElastoDyn's tower nodes
+(an OpenFAST case) node k takes the line load integrated over its element
+(`effects.aero.cell_transfer`: OpenFAST sends each lumped piece of
+AeroDyn's line to the nearest node, the one whose element it lies in); on a
+quadrature, node k takes F_k = w_k p(z_k) (`effects.aero.sampled_transfer`,
+w_k the node's weight). Stations are the
+table's elevations on the tower, cut at the tower's base and top where the
+table reaches beyond them; as in OpenFAST, whose mapping of AeroDyn's tower
+line mesh onto ElastoDyn's loads only the span the two share, a node below
+the table's lowest or above its highest elevation takes no drag. Diameter
+and Cd are the table's at the stations. Air density: the `air_density`
+option (an OpenFAST case's AirDens, as for the rotor), else the aero
+effect's, else the deck's. No tower shadow on the blades. Needs [effects.wind].
 
 The node loads are T g of the station loads g (T the transfer, N x P), so
 the compiled loop may take them at one load point per station
@@ -28,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from modesel.aero.tower_drag import drag_forces
-from modesel.model.effects.aero import aerodyn_deck, row_bands, sampled_transfer, wind_of
+from modesel.model.effects.aero import aerodyn_deck, cell_transfer, row_bands, sampled_transfer, wind_of
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
 
@@ -36,7 +42,9 @@ from modesel.multibody.kinematics import PointSet
 class TowerDragLoads(Effect):
     name = "tower_drag"
     loads = True
-    OPTIONS = {"aerodyn": Option("path", None, "AeroDyn main file (tower table)")}
+    OPTIONS = {"aerodyn": Option("path", None, "AeroDyn main file (tower table)"),
+               "air_density": Option("number", None, "air density [kg/m^3] (default: the aero effect's, "
+                                     "else the AeroDyn deck's)", positive=True)}
 
     def setup(self, built):
         self.wind = wind_of(self, built)
@@ -48,31 +56,44 @@ class TowerDragLoads(Effect):
         if deck.tower is None:
             raise self.error("the AeroDyn deck has no tower table (TwrElev, TwrDiam, TwrCd)", "aerodyn")
         self.drag = deck.tower
-        self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
-                    else deck.air_density)
+        if self.options["air_density"] is not None:
+            self.rho = float(self.options["air_density"])
+        elif aero is not None and self.options["aerodyn"] is None:
+            self.rho = aero.bem.solver.air_density
+        else:
+            self.rho = deck.air_density
         self.nodes = PointSet.of_body(built.eq, "tower")
         self.elevation, local = self._stations(built)
         s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
         self.stations = PointSet.of_points(built.eq, "tower", s0, Phi, S)
         self.coef = self.drag.coefficient(self.elevation, self.rho)           # [kg/m^2]
-        self.transfer = sampled_transfer(local, self.nodes.s0[:, 2], np.asarray(built.model.weights["tower"], float))
+        weights = np.asarray(built.model.weights["tower"], float)
+        if built.model.tower_elastodyn_nodes:
+            self.transfer = cell_transfer(local, self.nodes.s0[:, 2], weights)
+        else:
+            self.transfer = sampled_transfer(local, self.nodes.s0[:, 2], weights)
         self.line = np.empty((len(local), 3))                                  # p at the stations [N/m]
 
     def _stations(self, built):
         """Elevations [m] and body-frame heights [m] of the stations: the
-        table's elevations on the tower, plus its base and top where the
-        table does not reach them; heights at rest from the nodes' (the
-        undeflected tower is straight)."""
+        table's elevations on the tower, cut at its base and top where the
+        table reaches beyond them (module doc); heights at rest from the
+        nodes' (the undeflected tower is straight)."""
         q, qd = _rest(built)
         z_rest = self.nodes.kinematics(built.frames(q, qd), q, qd)[0][:, 2]
         local = self.nodes.s0[:, 2]
         slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
         tower = built.model.turbine.tower
         ends = np.array([tower.root_offset, tower.root_offset + tower.length])
-        inside = (self.drag.elevation - base) / slope
+        table = (np.asarray(self.drag.elevation, float) - base) / slope
         tol = 1e-6 * tower.length
-        inside = inside[(inside > ends[0] + tol) & (inside < ends[1] - tol)]
-        local = np.concatenate([ends[:1], inside, ends[1:]])
+        lo, hi = max(ends[0], table.min()), min(ends[1], table.max())
+        if hi - lo <= tol:
+            raise self.error(f"the AeroDyn tower table (TwrElev {self.drag.elevation.min():g} to "
+                             f"{self.drag.elevation.max():g} m) does not reach the tower (base {base + slope * ends[0]:g} m,"
+                             f" top {base + slope * ends[1]:g} m above the ground)", "aerodyn")
+        inside = table[(table > lo + tol) & (table < hi - tol)]
+        local = np.concatenate([[lo], inside, [hi]])
         return base + slope * local, local
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
