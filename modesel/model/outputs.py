@@ -58,6 +58,7 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
+from modesel.model.gauges import GAUGE_CHANNEL, blade_gauge_loads, wanted_gauges
 from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
@@ -225,6 +226,8 @@ def channel_unit(name: str) -> str | None:
     name = canonical_channel(name)
     if re.fullmatch(r"Wind[1-9]Vel[XYZ]", name):
         return "m/s"
+    if m := GAUGE_CHANNEL.fullmatch(name):
+        return "kN" if m.group(2) == "F" else "kN-m"
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
             try:
@@ -456,9 +459,12 @@ def load_channels(built, integ, wanted=None) -> dict:
                      and (wanted is None or set(e.CHANNELS) & set(wanted))]
     reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
     accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else None
-    if not with_channels and not reactions and accel is None:
+    gauges = wanted_gauges(built.model, wanted)
+    if not with_channels and not reactions and accel is None and not gauges:
         return {}
     solved = accel or []        # the coordinates whose accelerations the pass returns
+    if gauges:
+        solved = solved + [n for n in built.model.system.free if n not in solved]
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
     if not all(c in getattr(rhs, "channels", {}) for c in names):
@@ -472,6 +478,8 @@ def load_channels(built, integ, wanted=None) -> dict:
         out.update({n: values[:, len(rows) + len(solved) + k] for k, n in enumerate(names)})
     if accel is not None:
         out.update(tower_top_accelerations(built, integ, qdd))
+    if gauges:
+        out.update(blade_gauge_loads(built, integ, qdd, gauges))
     return out
 
 

@@ -83,6 +83,8 @@ class Turbine:
     #: ElastoDyn's analysis nodes per blade / tower (BldNodes, TwrNodes), None if unknown
     blade_nodes: int | None = None
     tower_nodes: int | None = None
+    #: ElastoDyn's blade nodes (1-based) with strain gauges (BldGagNd, NBlGages of them)
+    blade_gauges: tuple = ()
 
     @property
     def apex_overhang(self) -> float:

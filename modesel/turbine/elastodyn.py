@@ -238,6 +238,7 @@ def read_elastodyn(path) -> Turbine:
         elastodyn_shapes={**tower_shapes, **blade_shapes},
         dofs=dofs, initial=initial, source=str(path), notes=tuple(notes),
         blade_nodes=_node_count(num("BldNodes", "BldNodes"), "BldNodes", ed_deck),
+        blade_gauges=_gauges(ed, ed_deck, "NBlGages", "BldGagNd", num("BldNodes", "BldNodes")),
         tower_nodes=_node_count(num("TwrNodes", "TwrNodes"), "TwrNodes", ed_deck),
     )
 
@@ -335,6 +336,27 @@ def _checked_float(value, label, deck) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
         raise ModeselError(f"non-numeric value {deck.value(label)!r}", file=str(deck.path), field=label)
     return float(value)
+
+
+def _gauges(ed, deck, count_label, nodes_label, nodes) -> tuple:
+    """The ElastoDyn nodes (1-based) that carry strain gauges: `count_label`
+    (NBlGages, NTwGages: 0 to 9) entries of `nodes_label` (BldGagNd,
+    TwrGagNd), each between 1 and the beam's node count `nodes`."""
+    count = int(_checked_float(ed.get(count_label), count_label, deck))
+    if not 0 <= count <= 9:
+        raise ModeselError(f"{count_label} must be 0 to 9, got {count}", file=str(deck.path), field=count_label)
+    if count == 0:
+        return ()
+    raw = ed.get(nodes_label)
+    values = list(raw) if isinstance(raw, (list, tuple)) else [raw]
+    if len(values) < count:
+        raise ModeselError(f"{count_label} = {count} but {len(values)} node(s) given", file=str(deck.path),
+                           field=nodes_label)
+    gauges = tuple(int(_checked_float(v, nodes_label, deck)) for v in values[:count])
+    if any(not 1 <= g <= nodes for g in gauges):
+        raise ModeselError(f"gauge nodes must be 1 to {int(nodes)}, got {list(gauges)}", file=str(deck.path),
+                           field=nodes_label)
+    return gauges
 
 
 def _two_blader(ed, deck, num_blades, dofs, initial, num):

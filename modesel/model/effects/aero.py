@@ -202,6 +202,8 @@ class BladeAerodynamics(Effect):
             self.correction = np.ascontiguousarray(_elastodyn_correction(
                 line, nodes_span, phi, self.node_slopes, structural, self.transfer))
             self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
+            points, interp, near = _augmented_line(line, nodes_span, structural)
+            self.augmented = (interp, near, np.linalg.norm(np.diff(points, axis=0), axis=1))
         else:
             self.transfer = sampled_transfer(span, nodes_span, self.weights)
             self.lumping = self.transfer
@@ -246,6 +248,35 @@ class BladeAerodynamics(Effect):
             node_forces[name] = self.forces[b] if f is None else f + self.forces[b]
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0]), "tsr": tsr,
                      "skew": float(self.skew[0, 0]), "rmax": float(self.r.max())}
+
+    def openfast_node_loads(self, b, node_pos):
+        """(N, 6) forces [N] and moments about the nodes [N m] (inertial) that
+        OpenFAST hands ElastoDyn's nodes of blade b (positions `node_pos` (N, 3))
+        for this effect's last call, on ElastoDyn's nodes only: the line loads
+        and pitching moments interpolated to the augmented line
+        (`_augmented_line`), lumped per element as ModMesh_Mapping
+        Lump_Line2_to_Point lumps them (F_1 += h (2 f_1 + f_2) / 6, end moments
+        +-(h/12) dp x (f_1 + f_2), dp the displaced element), each point's load
+        moved to its nearest node with the moment of its offset. The section
+        loads of the strain gauges (model/gauges.py) sum these, as ElastoDyn does."""
+        interp, near, h = self.augmented
+        fn, ft = self.bem.buffers.f_n[b], self.bem.buffers.f_t[b]
+        line = fn[:, None] * self.en[b] + ft[:, None] * self.et[b]                   # [N/m]
+        pitching = (self.cm_scale * self.bem.buffers.out[11].reshape(self.r.shape)[b])[:, None] \
+            * np.cross(self.et[b], self.en[b])                                         # [N m/m]
+        f, m, r = interp @ line, interp @ pitching, interp @ self.pos[b]
+        force, moment = np.zeros_like(f), np.zeros_like(f)
+        for k, hk in enumerate(h):
+            force[k] += hk / 6.0 * (2.0 * f[k] + f[k + 1])
+            force[k + 1] += hk / 6.0 * (f[k] + 2.0 * f[k + 1])
+            moment[k] += hk / 6.0 * (2.0 * m[k] + m[k + 1])
+            moment[k + 1] += hk / 6.0 * (m[k] + 2.0 * m[k + 1])
+            end = hk / 12.0 * np.cross(r[k + 1] - r[k], f[k] + f[k + 1])
+            moment[k] += end
+            moment[k + 1] -= end
+        out = np.zeros((len(node_pos), 6))
+        np.add.at(out, near, np.hstack([force, moment + np.cross(r - node_pos[near], force)]))
+        return out
 
     def load_points(self, built):
         """Each blade's node loads are T f of the station loads f (module doc 5)."""
