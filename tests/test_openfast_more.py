@@ -43,7 +43,7 @@ tolerances:
   before);
 - two_blader: a two-bladed rotor with undersling and the teeter locked;
 - rigid_drivetrain: the shaft torque with DrTrDOF off;
-- blade_gauges: ElastoDyn's blade strain-gauge loads;
+- strain_gauges: ElastoDyn's blade and tower strain-gauge loads;
 - full_tower_drag, partial_tower_drag: tower drag with the .fst's air
   density, over AeroDyn's whole tower table or its upper part;
 - with the OpenFAST executable present (slow): the committed decks give the
@@ -294,7 +294,8 @@ def test_rigid_drivetrain_writes_the_shaft_torque_as_openfast():
 
 def test_blade_strain_gauges_match_openfast():
     """steady_08 with three blade strain gauges at ElastoDyn nodes 5, 9 and 13
-    (as OpenFAST's r-test 5MW_Land decks; 30 s): Spn<i>MLxb<b>, MLyb, MLzb,
+    (as OpenFAST's r-test 5MW_Land decks) and three tower gauges (30 s; case
+    strain_gauges): Spn<i>MLxb<b>, MLyb, MLzb,
     FLxb, FLyb, FLzb, not computed before. Force summation over the nodes
     outboard of the gauge as ElastoDyn sums them (model/gauges.py), with the
     aerodynamic loads as OpenFAST maps them onto the nodes: with the
@@ -304,7 +305,7 @@ def test_blade_strain_gauges_match_openfast():
     (MLyb, FLxb, FLzb); within 1 % for the edgewise and torsional ones (MLxb,
     FLyb, MLzb), whose means are small against their once-per-revolution
     swing (Spn2MLxb3: -44.6 kN-m, std 377 kN-m); NRMSE <= 0.2 %."""
-    out, ref = run("blade_gauges")
+    out, ref = run("strain_gauges")
     a, b = (f[f.Time >= 10.0 - 1e-9] for f in (out, ref))
     names = [c for c in ref.columns if c.startswith("Spn")]
     means = {c: a[c].mean() / b[c].mean() - 1 for c in names}
@@ -314,6 +315,28 @@ def test_blade_strain_gauges_match_openfast():
     print(f"\nblade_gauges: {text}")
     assert len(names) == 22
     assert all(abs(v) <= (0.01 if c[4:8] in ("MLxb", "FLyb", "MLzb") else 5e-4) for c, v in means.items()), text
+    assert all(v <= 0.002 for v in errs.values()), text
+
+
+def test_tower_strain_gauges_match_openfast():
+    """The tower gauges of case strain_gauges at ElastoDyn's tower nodes 5,
+    10 and 15: TwHt<i>MLxt, MLyt, MLzt, FLxt, FLyt, FLzt, not computed before:
+    the yaw bearing's reaction loads less the yaw-bearing mass's weight and
+    inertia, plus the tower nodes above the gauge (model/gauges.py). Means of
+    the last 20 s within 0.05 % for the fore-aft, side-side and vertical
+    loads (MLxt, MLyt, FLxt, FLzt); within 2 % for the yaw moment and lateral
+    force (MLzt, FLyt: means of -184 kN-m and 0.3-1 kN on swings of 74 kN-m
+    and 9 kN); NRMSE <= 0.2 %."""
+    out, ref = run("strain_gauges")
+    a, b = (f[f.Time >= 10.0 - 1e-9] for f in (out, ref))
+    names = [c for c in ref.columns if c.startswith("TwHt")]
+    means = {c: a[c].mean() / b[c].mean() - 1 for c in names}
+    errs = {c: nrmse(out, ref, c) for c in names}
+    text = (", ".join(f"mean {c} {v:+.3%}" for c, v in means.items()) + "; "
+            + ", ".join(f"NRMSE {c} {v:.3%}" for c, v in errs.items()))
+    print(f"\nstrain_gauges (tower): {text}")
+    assert len(names) == 18
+    assert all(abs(v) <= (0.02 if c[5:9] in ("MLzt", "FLyt") else 5e-4) for c, v in means.items()), text
     assert all(v <= 0.002 for v in errs.values()), text
 
 

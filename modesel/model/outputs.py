@@ -58,7 +58,8 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
-from modesel.model.gauges import GAUGE_CHANNEL, blade_gauge_loads, wanted_gauges
+from modesel.model.gauges import (GAUGE_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, blade_gauge_loads,
+                                  tower_gauge_loads, wanted_gauges, wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
@@ -123,7 +124,7 @@ SHAFT_LOAD_SOURCES = ("LSShftFys", "LSShftFzs", "LSSTipMys", "LSSTipMzs")
 SHAFT_LOADS = ("LSShftFya", "LSShftFza", "LSSTipMya", "LSSTipMza", "LSSGagMya", "LSSGagMza", "LSSGagMys",
                "LSSGagMzs")
 _FORCE_CHANNELS = re.compile(r"(TwrBs(F[xyz]|Mz)t|YawBr[FM][xyz]p|Root(F[xyz]|Mz)c\d|Root[MF][xy]b\d|"
-                             r"LSShftF[yz][as]|LSS(Tip|Gag)M[yz][as])")
+                             r"LSShftF[yz][as]|LSS(Tip|Gag)M[yz][as]|TwHt\d[FM]L[xyz]t)")
 
 
 def needs_reaction_forces(wanted) -> bool:
@@ -226,7 +227,7 @@ def channel_unit(name: str) -> str | None:
     name = canonical_channel(name)
     if re.fullmatch(r"Wind[1-9]Vel[XYZ]", name):
         return "m/s"
-    if m := GAUGE_CHANNEL.fullmatch(name):
+    if m := (GAUGE_CHANNEL.fullmatch(name) or TOWER_GAUGE_CHANNEL.fullmatch(name)):
         return "kN" if m.group(2) == "F" else "kN-m"
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
@@ -314,6 +315,8 @@ def channels(built, integ, wanted=None):
                                 for src in PITCHED_ROOT_LOADS[n[:-1]]}
         if wanted & set(SHAFT_LOADS):
             wanted |= set(SHAFT_LOAD_SOURCES)
+        if any(TOWER_GAUGE_CHANNEL.fullmatch(n) for n in wanted):
+            wanted |= set(YAW_BEARING_LOADS)
     data.update(load_channels(built, integ, wanted))
     data.update(pitched_root_loads(data, model.pitch, wanted))
     data.update(shaft_loads(data, model.turbine, wanted))
@@ -460,10 +463,11 @@ def load_channels(built, integ, wanted=None) -> dict:
     reactions = {k: v for k, v in built.model.reactions.items() if wanted is None or k in wanted}
     accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else None
     gauges = wanted_gauges(built.model, wanted)
-    if not with_channels and not reactions and accel is None and not gauges:
+    tower_gauges = wanted_tower_gauges(built.model, wanted)
+    if not with_channels and not reactions and accel is None and not gauges and not tower_gauges:
         return {}
     solved = accel or []        # the coordinates whose accelerations the pass returns
-    if gauges:
+    if gauges or tower_gauges:
         solved = solved + [n for n in built.model.system.free if n not in solved]
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
@@ -480,6 +484,8 @@ def load_channels(built, integ, wanted=None) -> dict:
         out.update(tower_top_accelerations(built, integ, qdd))
     if gauges:
         out.update(blade_gauge_loads(built, integ, qdd, gauges))
+    if tower_gauges and all(n in out for n in YAW_BEARING_LOADS):
+        out.update(tower_gauge_loads(built, integ, qdd, tower_gauges, out))
     return out
 
 

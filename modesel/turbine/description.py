@@ -85,6 +85,8 @@ class Turbine:
     tower_nodes: int | None = None
     #: ElastoDyn's blade nodes (1-based) with strain gauges (BldGagNd, NBlGages of them)
     blade_gauges: tuple = ()
+    #: ElastoDyn's tower nodes (1-based) with strain gauges (TwrGagNd, NTwGages of them)
+    tower_gauges: tuple = ()
 
     @property
     def apex_overhang(self) -> float:

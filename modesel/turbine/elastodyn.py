@@ -239,6 +239,7 @@ def read_elastodyn(path) -> Turbine:
         dofs=dofs, initial=initial, source=str(path), notes=tuple(notes),
         blade_nodes=_node_count(num("BldNodes", "BldNodes"), "BldNodes", ed_deck),
         blade_gauges=_gauges(ed, ed_deck, "NBlGages", "BldGagNd", num("BldNodes", "BldNodes")),
+        tower_gauges=_gauges(ed, ed_deck, "NTwGages", "TwrGagNd", num("TwrNodes", "TwrNodes")),
         tower_nodes=_node_count(num("TwrNodes", "TwrNodes"), "TwrNodes", ed_deck),
     )
 

@@ -38,13 +38,13 @@ False         MirrorRotor     - Flag to reverse rotor rotation direction [1 to N
           0   WtrDpth         - Water depth (m)
           0   MSL2SWL         - Offset between still-water level and mean sea level (m) [positive upward]
 ---------------------- INPUT FILES ---------------------------------------------
-"blade_gauges_ElastoDyn.dat"    EDFile          - Name of file containing ElastoDyn input parameters (quoted string)
+"strain_gauges_ElastoDyn.dat"    EDFile          - Name of file containing ElastoDyn input parameters (quoted string)
 "unused"      BDBldFile(1)    - Name of file containing BeamDyn input parameters for blade 1 (quoted string)
 "unused"      BDBldFile(2)    - Name of file containing BeamDyn input parameters for blade 2 (quoted string)
 "unused"      BDBldFile(3)    - Name of file containing BeamDyn input parameters for blade 3 (quoted string)
-"blade_gauges_InflowWind.dat"    InflowFile      - Name of file containing inflow wind input parameters (quoted string)
+"strain_gauges_InflowWind.dat"    InflowFile      - Name of file containing inflow wind input parameters (quoted string)
 "../../../../studies/data/openfast/common/NREL5MW_AD_v5.dat"    AeroFile        - Name of file containing aerodynamic input parameters (quoted string)
-"blade_gauges_ServoDyn.dat"    ServoFile       - Name of file containing control and electrical-drive input parameters (quoted string)
+"strain_gauges_ServoDyn.dat"    ServoFile       - Name of file containing control and electrical-drive input parameters (quoted string)
 "unused"      SeaStFile       - Name of file containing sea state input parameters (quoted string)
 "unused"      HydroFile       - Name of file containing hydrodynamic input parameters (quoted string)
 "unused"      SubFile         - Name of file containing sub-structural input parameters (quoted string)
