@@ -173,12 +173,19 @@ def switched_off_dofs(requested, columns: dict, coordinates) -> dict:
     `requested` names: 0 throughout, as ElastoDyn holds a switched-off DOF
     at 0 (ElastoDyn.f90 InitBlDefl and the tower's initial state) and
     OpenFAST writes it. Only names of elastic DOFs (vocabulary) absent from
-    `coordinates` (the model's) and from `columns`."""
+    `coordinates` (the model's) and from `columns`; and DrTr (DrTrDOF False:
+    ElastoDyn holds the drivetrain's twist at 0, modesel's rotor joint keeps
+    the coordinate, fixed at 0), where `columns` lacks it."""
     n = len(columns["Time"])
     out = {}
     for name in requested:
         prefix, _, dof = name.partition("_")
-        if prefix not in ("Q", "QD") or name in columns or dof in coordinates:
+        if prefix not in ("Q", "QD") or name in columns:
+            continue
+        if dof == "DrTr":
+            out[name] = np.zeros(n)
+            continue
+        if dof in coordinates:
             continue
         try:
             elastic = parse_dof(dof).kind == "elastic" and parse_dof(dof).multiblade is None
