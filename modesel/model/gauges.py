@@ -89,73 +89,124 @@ def small_rotation(t1, t2, t3=0.0) -> np.ndarray:
         [0.5 * t1 * t3 + t2 * w, 0.5 * t2 * t3 - t1 * w, 1.0 - 0.5 * (t1 * t1 + t2 * t2)]])
 
 
-def blade_gauge_loads(built, integ, accelerations, gauges) -> dict:
-    """The gauge channels of `gauges` {blade: gauge numbers} (module doc) at
-    the output times of `integ`; accelerations: {free coordinate: qdd}."""
-    model, eq = built.model, built.eq
-    t_all = integ.t
-    free = list(model.system.free)
-    qdd_free = np.column_stack([accelerations[n] for n in free]) if free else np.zeros((len(t_all), 0))
-    turbine = model.turbine
-    gravity = np.array([0.0, 0.0, -turbine.gravity])
-    blade = turbine.blade
-    nodes_ed = int(turbine.blade_nodes)
-    length = blade.length
-    dr = length / nodes_ed
-    sets = {b: PointSet.of_body(eq, f"blade{b}") for b in gauges}
-    aero = built.effect("aero")
-    aero = aero if aero is not None and hasattr(aero, "augmented") else None
-    out = {f"Spn{i}{k}L{a}b{b}": np.empty(len(t_all)) for b, gs in gauges.items() for i in gs
-           for k in "FM" for a in "xyz"}
-    for k, t in enumerate(t_all):
-        q_all, qd_all, qdd_presc = eq.full_state(integ.q[k], integ.qd[k], t)
+class _States:
+    """At output time k (`at(k)`): the effects' node loads, the points'
+    positions and the bodies' frames at the state, and the points' and
+    bodies' origins' accelerations by the central difference (module doc),
+    for the point sets `sets` {key: PointSet}; one evaluation of the effects
+    and three of the kinematics per time, shared by the blade and tower gauges."""
+
+    def __init__(self, built, integ, accelerations, sets):
+        self.built, self.integ, self.sets = built, integ, sets
+        free = list(built.model.system.free)
+        self.qdd_free = (np.column_stack([accelerations[n] for n in free]) if free
+                         else np.zeros((len(integ.t), 0)))
+
+    def at(self, k):
+        built, eq = self.built, self.built.eq
+        t = self.integ.t[k]
+        q_all, qd_all, qdd_presc = eq.full_state(self.integ.q[k], self.integ.qd[k], t)
         qdd_all = qdd_presc.copy()
-        qdd_all[eq.free_idx] = qdd_free[k]
-        # the effects' loads and the positions and axes first: the frames are
+        qdd_all[eq.free_idx] = self.qdd_free[k]
+        # the effects' loads and the positions and frames first: the frames are
         # computed into buffers that the perturbed states below overwrite
         _, applied = built.loads(t, q_all, qd_all)
+        self.q_all, self.applied = q_all, {n: np.array(v) for n, v in applied.items()}
         frames = built.frames(q_all, qd_all)
-        here = {}
-        for b, ps in sets.items():
-            pos = ps.kinematics(frames, q_all, qd_all)[0].copy()
-            loads = applied.get(f"blade{b}")
-            if aero is not None:       # the aerodynamic loads as OpenFAST maps them onto the nodes
-                loads = aero.openfast_node_loads(b - 1, pos[:nodes_ed])
-            here[b] = (pos, frames[0][eq.body_index[f"blade{b}"]].copy(), None if loads is None else np.array(loads))
-        velocity = {}
+        self.pos = {n: ps.kinematics(frames, q_all, qd_all)[0].copy() for n, ps in self.sets.items()}
+        self.R, self.origin = frames[0].copy(), frames[1][:, 0].copy()
+        v, w = {}, {}
         for sign in (1.0, -1.0):
             state = (q_all + sign * STEP * qd_all, qd_all + sign * STEP * qdd_all)
             frames = built.frames(*state)
-            velocity[sign] = {b: ps.kinematics(frames, *state)[1].copy() for b, ps in sets.items()}
-        for b, gs in gauges.items():
-            ps = sets[b]
-            pos, R, node_loads = here[b]
-            acc = (velocity[1.0][b] - velocity[-1.0][b]) / (2.0 * STEP)
-            mass = np.asarray(eq.system.body(f"blade{b}").node_mass, float)
+            v[sign] = {n: ps.kinematics(frames, *state)[1].copy() for n, ps in self.sets.items()}
+            w[sign] = frames[1][:, 1].copy()
+        self.acc = {n: (v[1.0][n] - v[-1.0][n]) / (2.0 * STEP) for n in self.sets}
+        self.origin_acc = (w[1.0] - w[-1.0]) / (2.0 * STEP)
+        return self
+
+
+def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bearing) -> dict:
+    """The gauge channels of `blade_gauges` {blade: gauge numbers} and
+    `tower_gauges` (gauge numbers) (module doc) at the output times of
+    `integ`; accelerations: {free coordinate: qdd}; yaw_bearing: the
+    YAW_BEARING_LOADS histories [kN, kN m] (for the tower's)."""
+    eq = built.eq
+    sets = {f"blade{b}": PointSet.of_body(eq, f"blade{b}") for b in blade_gauges}
+    if tower_gauges:
+        sets["tower"] = PointSet.of_body(eq, "tower")
+    states = _States(built, integ, accelerations, sets)
+    aero = built.effect("aero")
+    aero = aero if aero is not None and hasattr(aero, "augmented") else None
+    blade = _BladeGauges(built, blade_gauges, aero) if blade_gauges else None
+    tower = _TowerGauges(built, tower_gauges, yaw_bearing) if tower_gauges else None
+    out = {}
+    for k in range(len(integ.t)):
+        st = states.at(k)
+        for part in (blade, tower):
+            if part is not None:
+                for name, value in part(st, k).items():
+                    out.setdefault(name, np.empty(len(integ.t)))[k] = value
+    return out
+
+
+def _section(load, pos, g, outer, arm, axes, force0=None, moment0=None):
+    """The force and moment (module doc) at node g from the node loads
+    `load` (N, 6) of the nodes `outer` beyond it and half of g's (the half
+    element's arm `arm`, a vector), started from force0 and moment0; and
+    their components on `axes` (3, 3), in kN and kN m."""
+    force = load[outer, :3].sum(axis=0) + 0.5 * load[g, :3]
+    moment = (np.cross(pos[outer] - pos[g], load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
+              + np.cross(arm, 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
+    if force0 is not None:
+        force, moment = force + force0, moment + moment0
+    return axes @ force / 1e3, axes @ moment / 1e3
+
+
+class _BladeGauges:
+    """The blade gauges' channels at one output time (module doc)."""
+
+    def __init__(self, built, gauges, aero):
+        self.built, self.gauges, self.aero = built, gauges, aero
+        turbine = built.model.turbine
+        self.gravity = np.array([0.0, 0.0, -turbine.gravity])
+        self.nodes = int(turbine.blade_nodes)
+        self.dr = turbine.blade.length / self.nodes
+        eq = built.eq
+        self.mass = {b: np.asarray(eq.system.body(f"blade{b}").node_mass, float) for b in gauges}
+        self.index = {b: eq.body_index[f"blade{b}"] for b in gauges}
+        ps = {b: PointSet.of_body(eq, f"blade{b}") for b in gauges}
+        self.idx = {b: ps[b].idx for b in gauges}
+        self.slopes = {b: built.model.station_slopes(f"blade{b}", ps[b].s0[:self.nodes, 2]) for b in gauges}
+        blade = turbine.blade
+        self.twist = {b: np.interp(ps[b].s0[:self.nodes, 2], blade.span - blade.span[0], blade.twist)
+                      for b in gauges}
+
+    def __call__(self, st, k):
+        out = {}
+        for b, gs in self.gauges.items():
+            name = f"blade{b}"
+            pos, mass = st.pos[name], self.mass[b]
             load = np.zeros((len(mass), 6))
-            if node_loads is not None:
-                load[:, :node_loads.shape[1]] = node_loads
-            load[:, :3] += mass[:, None] * (gravity[None, :] - acc)
+            applied = (self.aero.openfast_node_loads(b - 1, pos[:self.nodes]) if self.aero is not None
+                       else st.applied.get(name))
+            if applied is not None:
+                load[:len(applied), :applied.shape[1]] = applied
+            load[:, :3] += mass[:, None] * (self.gravity[None, :] - st.acc[name])
+            R = st.R[self.index[b]]
             j1, j2, j3 = R[:, 0], R[:, 1], R[:, 2]
-            slopes = model.station_slopes(f"blade{b}", ps.s0[:nodes_ed, 2])
-            qe = q_all[ps.idx]
+            qe = st.q_all[self.idx[b]]
             for i in gs:
-                g = turbine.blade_gauges[i - 1] - 1
-                outer = np.arange(g + 1, len(mass))          # the outboard nodes and the tip mass
-                arm = pos[outer] - pos[g]
-                force = load[outer, :3].sum(axis=0) + 0.5 * load[g, :3]
-                moment = (np.cross(arm, load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
-                          + np.cross(0.25 * dr * j3, 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
-                twist = np.interp(ps.s0[g, 2], blade.span - blade.span[0], blade.twist)
-                c, s = np.cos(twist), np.sin(twist)
+                g = self.built.model.turbine.blade_gauges[i - 1] - 1
+                c, s = np.cos(self.twist[b][g]), np.sin(self.twist[b][g])
                 lj = np.array([c * j1 - s * j2, s * j1 + c * j2, j3])
-                sx, sy = (slopes[g] @ qe)[:2] if len(qe) else (0.0, 0.0)
+                sx, sy = (self.slopes[b][g] @ qe)[:2] if len(qe) else (0.0, 0.0)
                 theta_ip, theta_oop = -sy, sx
                 axes = small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj
-                for a, n in zip("xyz", axes):
-                    out[f"Spn{i}FL{a}b{b}"][k] = force @ n / 1e3
-                    out[f"Spn{i}ML{a}b{b}"][k] = moment @ n / 1e3
-    return out
+                f, m = _section(load, pos, g, np.arange(g + 1, len(mass)), 0.25 * self.dr * j3, axes)
+                for a, fa, ma in zip("xyz", f, m):
+                    out[f"Spn{i}FL{a}b{b}"], out[f"Spn{i}ML{a}b{b}"] = fa, ma
+        return out
 
 
 def wanted_tower_gauges(model, wanted) -> list:
@@ -173,65 +224,52 @@ def wanted_tower_gauges(model, wanted) -> list:
     return sorted(i for i in found if i <= len(gauges))
 
 
-def tower_gauge_loads(built, integ, accelerations, gauges, yaw_bearing) -> dict:
-    """TwHt<i>[FM]L[xyz]t of gauges `gauges` (module doc) at the output times
-    of `integ`; accelerations: {free coordinate: qdd}; yaw_bearing: the
-    YAW_BEARING_LOADS histories [kN, kN m]."""
-    model, eq = built.model, built.eq
-    turbine = model.turbine
-    t_all = integ.t
-    free = list(model.system.free)
-    qdd_free = np.column_stack([accelerations[n] for n in free]) if free else np.zeros((len(t_all), 0))
-    gravity = np.array([0.0, 0.0, -turbine.gravity])
-    nodes_ed = int(turbine.tower_nodes)
-    dh = turbine.tower.length / nodes_ed
-    ps = PointSet.of_body(eq, "tower")
-    body = eq.system.body("tower")
-    mass = np.asarray(body.node_mass, float)[:nodes_ed]
-    yb = eq.body_index["yaw_bearing"]
-    base = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])     # a1, a2, a3
-    fa = [d for d in model.field_dofs.get("tower_fa", ())]
-    ss = [d for d in model.field_dofs.get("tower_ss", ())]
-    x_nodes = ps.s0[:nodes_ed, 2] / turbine.tower.length
-    slope_fa = model.shapes["tower_fa"](x_nodes).dphi / turbine.tower.length if fa else None
-    slope_ss = model.shapes["tower_ss"](x_nodes).dphi / turbine.tower.length if ss else None
-    out = {f"TwHt{i}{k}L{a}t": np.empty(len(t_all)) for i in gauges for k in "FM" for a in "xyz"}
-    for k, t in enumerate(t_all):
-        q_all, qd_all, qdd_presc = eq.full_state(integ.q[k], integ.qd[k], t)
-        qdd_all = qdd_presc.copy()
-        qdd_all[eq.free_idx] = qdd_free[k]
-        _, applied = built.loads(t, q_all, qd_all)
-        loads_applied = applied.get("tower")
-        loads_applied = None if loads_applied is None else np.array(loads_applied)[:nodes_ed]
-        frames = built.frames(q_all, qd_all)
-        pos = ps.kinematics(frames, q_all, qd_all)[0][:nodes_ed].copy()
-        R_p, r_top = frames[0][yb].copy(), frames[1][yb][0].copy()
-        velocity, top = {}, {}
-        for sign in (1.0, -1.0):
-            state = (q_all + sign * STEP * qd_all, qd_all + sign * STEP * qdd_all)
-            frames = built.frames(*state)
-            velocity[sign] = ps.kinematics(frames, *state)[1][:nodes_ed].copy()
-            top[sign] = frames[1][yb][1].copy()
-        acc = (velocity[1.0] - velocity[-1.0]) / (2.0 * STEP)
-        acc_top = (top[1.0] - top[-1.0]) / (2.0 * STEP)
-        load = np.zeros((nodes_ed, 6))
-        if loads_applied is not None:
-            load[:, :loads_applied.shape[1]] = loads_applied
-        load[:, :3] += mass[:, None] * (gravity[None, :] - acc)
-        f_top = R_p @ np.array([yaw_bearing[n][k] for n in YAW_BEARING_LOADS[:3]]) * 1e3
-        m_top = R_p @ np.array([yaw_bearing[n][k] for n in YAW_BEARING_LOADS[3:]]) * 1e3
-        f_top = f_top + turbine.yaw_bearing_mass * (gravity - acc_top)
-        for i in gauges:
+class _TowerGauges:
+    """The tower gauges' channels at one output time (module doc)."""
+
+    def __init__(self, built, gauges, yaw_bearing):
+        self.built, self.gauges, self.yaw_bearing = built, gauges, yaw_bearing
+        model, eq = built.model, built.eq
+        turbine = model.turbine
+        self.gravity = np.array([0.0, 0.0, -turbine.gravity])
+        self.nodes = int(turbine.tower_nodes)
+        self.dh = turbine.tower.length / self.nodes
+        self.mass = np.asarray(eq.system.body("tower").node_mass, float)[:self.nodes]
+        self.top = eq.body_index["yaw_bearing"]
+        self.base = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])   # a1, a2, a3
+        x = PointSet.of_body(eq, "tower").s0[:self.nodes, 2] / turbine.tower.length
+        self.slope = {}
+        for fld in ("tower_fa", "tower_ss"):
+            dofs = model.field_dofs.get(fld, ())
+            if dofs:
+                self.slope[fld] = (model.shapes[fld](x).dphi / turbine.tower.length, [eq.index[d] for d in dofs])
+
+    def _angle(self, fld, g, q_all):
+        if fld not in self.slope:
+            return 0.0
+        slope, idx = self.slope[fld]
+        return float(slope[:, g] @ q_all[idx])
+
+    def __call__(self, st, k):
+        turbine = self.built.model.turbine
+        pos, n = st.pos["tower"][:self.nodes], self.nodes
+        load = np.zeros((n, 6))
+        applied = st.applied.get("tower")
+        if applied is not None:
+            load[:, :applied.shape[1]] = applied[:n]
+        load[:, :3] += self.mass[:, None] * (self.gravity[None, :] - st.acc["tower"][:n])
+        R_p, r_top = st.R[self.top], st.origin[self.top]
+        f_top = R_p @ np.array([self.yaw_bearing[c][k] for c in YAW_BEARING_LOADS[:3]]) * 1e3
+        m_top = R_p @ np.array([self.yaw_bearing[c][k] for c in YAW_BEARING_LOADS[3:]]) * 1e3
+        f_top = f_top + turbine.yaw_bearing_mass * (self.gravity - st.origin_acc[self.top])
+        out = {}
+        for i in self.gauges:
             g = turbine.tower_gauges[i - 1] - 1
-            outer = np.arange(g + 1, nodes_ed)
-            force = f_top + load[outer, :3].sum(axis=0) + 0.5 * load[g, :3]
-            moment = (np.cross(r_top - pos[g], f_top) + m_top
-                      + np.cross(pos[outer] - pos[g], load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
-                      + np.cross(0.25 * dh * base[1], 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
-            theta_fa = -float(slope_fa[:, g] @ q_all[[eq.index[d] for d in fa]]) if fa else 0.0
-            theta_ss = float(slope_ss[:, g] @ q_all[[eq.index[d] for d in ss]]) if ss else 0.0
-            t1, t2, t3 = small_rotation(theta_ss, 0.0, theta_fa) @ base
-            for a, n, sign in (("x", t1, 1.0), ("y", t3, -1.0), ("z", t2, 1.0)):
-                out[f"TwHt{i}FL{a}t"][k] = sign * (force @ n) / 1e3
-                out[f"TwHt{i}ML{a}t"][k] = sign * (moment @ n) / 1e3
-    return out
+            theta_fa, theta_ss = -self._angle("tower_fa", g, st.q_all), self._angle("tower_ss", g, st.q_all)
+            t1, t2, t3 = small_rotation(theta_ss, 0.0, theta_fa) @ self.base
+            axes = np.array([t1, -t3, t2])            # x, y, z: FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
+            f, m = _section(load, pos, g, np.arange(g + 1, n), 0.25 * self.dh * self.base[1], axes,
+                            f_top, np.cross(r_top - pos[g], f_top) + m_top)
+            for a, fa, ma in zip("xyz", f, m):
+                out[f"TwHt{i}FL{a}t"], out[f"TwHt{i}ML{a}t"] = fa, ma
+        return out

@@ -58,8 +58,8 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
-from modesel.model.gauges import (GAUGE_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, blade_gauge_loads,
-                                  tower_gauge_loads, wanted_gauges, wanted_tower_gauges)
+from modesel.model.gauges import (GAUGE_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, gauge_loads, wanted_gauges,
+                                  wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
@@ -489,10 +489,10 @@ def load_channels(built, integ, wanted=None) -> dict:
         out.update({n: values[:, len(rows) + len(solved) + k] for k, n in enumerate(names)})
     if accel is not None:
         out.update(tower_top_accelerations(built, integ, qdd))
-    if gauges:
-        out.update(blade_gauge_loads(built, integ, qdd, gauges))
-    if tower_gauges and all(n in out for n in YAW_BEARING_LOADS):
-        out.update(tower_gauge_loads(built, integ, qdd, tower_gauges, out))
+    if not all(n in out for n in YAW_BEARING_LOADS):
+        tower_gauges = []
+    if gauges or tower_gauges:
+        out.update(gauge_loads(built, integ, qdd, gauges, tower_gauges, out))
     return out
 
 

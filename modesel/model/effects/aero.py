@@ -203,7 +203,8 @@ class BladeAerodynamics(Effect):
                 line, nodes_span, phi, self.node_slopes, structural, self.transfer))
             self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
             points, interp, near = _augmented_line(line, nodes_span, structural)
-            self.augmented = (interp, near, np.linalg.norm(np.diff(points, axis=0), axis=1))
+            lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
+            self.augmented = (interp, near, lengths, _line_lumping(lengths) @ interp)
         else:
             self.transfer = sampled_transfer(span, nodes_span, self.weights)
             self.lumping = self.transfer
@@ -259,21 +260,16 @@ class BladeAerodynamics(Effect):
         +-(h/12) dp x (f_1 + f_2), dp the displaced element), each point's load
         moved to its nearest node with the moment of its offset. The section
         loads of the strain gauges (model/gauges.py) sum these, as ElastoDyn does."""
-        interp, near, h = self.augmented
+        interp, near, h, lumping = self.augmented
         fn, ft = self.bem.buffers.f_n[b], self.bem.buffers.f_t[b]
         line = fn[:, None] * self.en[b] + ft[:, None] * self.et[b]                   # [N/m]
         pitching = (self.cm_scale * self.bem.buffers.out[11].reshape(self.r.shape)[b])[:, None] \
             * np.cross(self.et[b], self.en[b])                                         # [N m/m]
-        f, m, r = interp @ line, interp @ pitching, interp @ self.pos[b]
-        force, moment = np.zeros_like(f), np.zeros_like(f)
-        for k, hk in enumerate(h):
-            force[k] += hk / 6.0 * (2.0 * f[k] + f[k + 1])
-            force[k + 1] += hk / 6.0 * (f[k] + 2.0 * f[k + 1])
-            moment[k] += hk / 6.0 * (2.0 * m[k] + m[k + 1])
-            moment[k + 1] += hk / 6.0 * (m[k] + 2.0 * m[k + 1])
-            end = hk / 12.0 * np.cross(r[k + 1] - r[k], f[k] + f[k + 1])
-            moment[k] += end
-            moment[k + 1] -= end
+        f, r = interp @ line, interp @ self.pos[b]
+        force, moment = lumping @ line, lumping @ pitching          # lumping = L I (`_line2_lumping`)
+        end = (h / 12.0)[:, None] * np.cross(r[1:] - r[:-1], f[1:] + f[:-1])
+        moment[:-1] += end
+        moment[1:] -= end
         out = np.zeros((len(node_pos), 6))
         np.add.at(out, near, np.hstack([force, moment + np.cross(r - node_pos[near], force)]))
         return out
@@ -481,6 +477,11 @@ def _lumped_transfer(stations, at, structural):
     W[idx[lo], cols] += 1.0 - a
     W[idx[lo + 1], cols] += a
     return W @ Lmp
+
+
+def _line_lumping(lengths):
+    """`_line2_lumping` of a line of elements of `lengths` [m]."""
+    return _line2_lumping(np.concatenate([[0.0], np.cumsum(lengths)]))
 
 
 def _line2_lumping(span):
