@@ -63,9 +63,9 @@ the induction equations; inductions are limited to -1 <= a <= 1.5 and
 -1 <= a' <= 1; elements at or beyond the tip or hub radius (loss constant
 <= 0) get the "fixed inductions" a = 1, a' = 0, so their inflow is purely
 tangential (phi = 0) and their loads follow from W = V_t (AeroDyn's tip-node
-loads). Elements with no root bracket, V_n <= 0 or V_t <= 0 (parked,
-reversed flow) get no induction (a = a' = 0, geometric inflow angle) and
-`converged=False`. Loads are always 1/2 rho W^2 c (Cl, Cd) resolved with
+loads). Elements with no root bracket, V_n or V_t below 1 mm/s (AeroDyn's
+VelocityIsZero: still air; or negative: parked, reversed flow) get no
+induction (a = a' = 0, geometric inflow angle) and `converged=False`. Loads are always 1/2 rho W^2 c (Cl, Cd) resolved with
 the final phi = atan2(V_n (1 - a), V_t (1 + a')).
 
 Low tip-speed ratio (AeroDyn BEMT.f90 `check_turnOffBEMT`): below a rotor
@@ -97,6 +97,9 @@ F_MIN = 1e-4
 A_LIMITS = (-1.0, 1.5)
 AP_LIMITS = (-1.0, 1.0)
 #: AeroDyn's InductionLimit: a' where k' = 1 (getTangentialInduction), before the limits above
+#: AeroDyn's VelocityIsZero (BEMTUncoupled.f90): below 1 mm/s of normal or tangential
+#: inflow an element gets no induction (phi 0 or +-pi/2 in the solve, then from the inflow)
+VELOCITY_ZERO = 1e-3          # m/s
 INDUCTION_LIMIT = 1e6
 #: AeroDyn's BEMT_lowerBoundTSR / BEMT_upperBoundTSR (BEMTUncoupled.f90): no induction at or
 #: below the lower tip-speed ratio, full induction from the upper (module doc, "Low tip-speed ratio")
@@ -434,7 +437,7 @@ def _solve_elements(r, vn, vt, theta, chord, offset, skew, psi, tip_ratio, c_tip
         e = (c_tip[i], theta[i], 0.0, 1.0, c_hub[i])
         if weight == 0.0:
             a, ap, ok = 0.0, 0.0, True
-        elif vn[i] > 0.0 and vt[i] > 0.0 and ri > 0.0 and not fixed:
+        elif vn[i] >= VELOCITY_ZERO and vt[i] >= VELOCITY_ZERO and ri > 0.0 and not fixed:
             sigma4 = B * chord[i] / (8.0 * np.pi * ri)
             e = (c_tip[i], theta[i], sigma4, vt[i] / vn[i], c_hub[i])
             phi, found, it = _solve_phi(e, offset[i], flags, grid, value, slope, tol, max_iter,
