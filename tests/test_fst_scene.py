@@ -243,6 +243,28 @@ def test_two_bladed_rotor_refuses_the_teeter_hinge(tmp_path, label, value, what)
     assert "\n" not in message and message.startswith(f"{ed}: ") and what in message, message
 
 
+def test_outlist_names_as_typed_with_sign_prefixes(tmp_path):
+    """OpenFAST writes an OutList entry under the name as typed: "-TwrBsMyt"
+    and "_TwrBsMxt" negated, "MRootMyc1" negated (no channel is called
+    MRootMyc1: ElastoDyn's SetOutParam then reads the M as minus),
+    "rotspeed" in lower case (checked against OpenFAST 5.0 by a sweep,
+    ratio -1.0000). modesel dropped the "-" and wrote the channel unsigned,
+    listed "_..." and "M..." as not computed, and ignored the case; a line
+    starting with "!" was read as a channel named "!"."""
+    fst = copy_case(tmp_path)
+    ed = fst.parent / "steady_08_ElastoDyn.dat"
+    text = ed.read_text()
+    extra = ['"-TwrBsMyt"', '"_TwrBsMxt"', '"MRootMyc1"', '"rotspeed"', "! a comment line"]
+    ed.write_text(text.replace('"RotThrust"\n', '"RotThrust"\n' + "\n".join(extra) + "\n", 1))
+    scene = load_scene(fst)
+    assert "!" not in scene.out_list and "-TwrBsMyt" in scene.out_list
+    out = simulate(scene, tmax=0.5).outputs
+    assert np.array_equal(out["-TwrBsMyt"], -out["TwrBsMyt"])
+    assert np.array_equal(out["_TwrBsMxt"], -out["TwrBsMxt"])
+    assert np.array_equal(out["MRootMyc1"], -out["RootMyc1"])
+    assert np.array_equal(out["rotspeed"], out["RotSpeed"])
+
+
 def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     fst = copy_case(tmp_path)
     edit(fst.parent / "steady_08_ServoDyn.dat", "PCMode", "5")

@@ -211,27 +211,49 @@ def output_columns(columns) -> dict:
     return index
 
 
+def signed_channel(name: str, known=lambda n: False) -> tuple:
+    """(sign, channel) of an OutList entry, as ElastoDyn's SetOutParam reads
+    it: a leading '-' or '_' negates the channel after it; a leading 'm' or
+    'M' does where the whole name is not a channel (`known`)."""
+    if name[:1] in ("-", "_") and len(name) > 1:
+        return -1.0, name[1:]
+    if name[:1] in ("m", "M") and len(name) > 1 and not known(name):
+        return -1.0, name[1:]
+    return 1.0, name
+
+
 def with_aliases(columns: dict, requested) -> dict:
     """`columns` plus, for each name in `requested` (an OpenFAST case's
-    OutList) that is not a column but another ElastoDyn name of one's
-    output (`output_columns`), that column again under the requested name."""
-    have = {c.upper() for c in columns}
+    OutList) that is not a column under that exact spelling, the column of
+    its output again under the name as typed, as OpenFAST writes it: another
+    ElastoDyn name of the output (`output_columns`), other letter case, or
+    a sign prefix (`signed_channel`: the values negated)."""
     by_output = output_columns(columns)
+
+    def source(name):
+        return by_output.get(canonical_channel(name).upper())
+
     out = dict(columns)
     for name in requested:
-        if name.upper() in have:
+        if name in out:
             continue
-        source = by_output.get(canonical_channel(name).upper())
-        if source is not None:
-            out[name] = columns[source]
-            have.add(name.upper())
+        sign, base = signed_channel(name, lambda n: source(n) is not None)
+        found = source(base)
+        if found is not None:
+            out[name] = columns[found] if sign > 0 else -columns[found]
     return out
 
 
 def channel_unit(name: str) -> str | None:
     """Unit of a simulation output channel (OpenFAST's, also under an
     ElastoDyn alias), None if unknown."""
-    name = canonical_channel(name)
+    unit = _unit(canonical_channel(name))
+    if unit is None and name[:1] in ("-", "_", "m", "M"):     # a negated OutList entry
+        unit = _unit(canonical_channel(name[1:]))
+    return unit
+
+
+def _unit(name: str) -> str | None:
     if re.fullmatch(r"Wind[1-9]Vel[XYZ]", name):
         return "m/s"
     if m := (GAUGE_CHANNEL.fullmatch(name) or TOWER_GAUGE_CHANNEL.fullmatch(name)):

@@ -119,18 +119,21 @@ class InputFile:
     def outlist(self) -> list:
         """The channel names of the file's first OutList ([] without one):
         OpenFAST's list, quoted names (several per line, separated by commas,
-        semicolons or blanks) up to the line that starts with END; a leading
-        '-' (OpenFAST's negated output) is dropped."""
+        semicolons or blanks) up to the line that starts with END, as typed
+        (a sign prefix, OpenFAST's negated output, kept: `outputs.with_aliases`
+        writes it); a line starting with '!' is a comment."""
         if self.outlist_at is None:
             return []
         names = []
         for line in self.lines[self.outlist_at + 1:]:
             if line.lstrip()[:3].upper() == "END":
                 break
+            if line.lstrip().startswith("!"):
+                continue
             quoted = re.findall(r'"([^"]*)"|\'([^\']*)\'', line)
             parts = [a or b for a, b in quoted] if quoted else line.split()[:1]
             for part in parts:
-                names += [n.lstrip("-") for n in re.split(r"[,;\s]+", part) if n.strip("-")]
+                names += [n for n in re.split(r"[,;\s]+", part) if n.strip("-_")]
         return names
 
     def unsupported(self, label: str, what: str):
