@@ -265,6 +265,18 @@ def test_outlist_names_as_typed_with_sign_prefixes(tmp_path):
     assert np.array_equal(out["rotspeed"], out["RotSpeed"])
 
 
+@pytest.mark.parametrize("value, what", [("0.03", "whole multiple of DT"), ("0.003125", "at least DT")])
+def test_output_step_openfast_refuses_is_refused(tmp_path, value, what):
+    """OpenFAST 5.0 refuses DT_Out 0.03 s ("DT_out must be an integer multiple
+    of DT") and 0.003125 s ("DT_out must be at least DT") with DT 0.00625 s;
+    modesel ran both. One line naming DT_Out."""
+    fst = copy_case(tmp_path)
+    edit(fst, "DT_Out", value)
+    with pytest.raises(ModeselError) as info:
+        load_scene(fst)
+    assert str(info.value).startswith(f"{fst}: DT_Out: ") and what in str(info.value)
+
+
 def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     fst = copy_case(tmp_path)
     edit(fst.parent / "steady_08_ServoDyn.dat", "PCMode", "5")

@@ -116,6 +116,7 @@ def scene_from_fst(path):
     dt_out = f.number("DT_Out", default=f.number("DT"))
     if dt_out <= 0:
         raise f.error(f"must be > 0, got {dt_out:g}", "DT_Out")
+    _check_output_step(f, dt_out)
     t_start = f.number("TStart", default=0.0)
     if not 0.0 <= t_start <= tmax:
         raise f.error(f"must lie in [0, TMax = {tmax:g}] s, got {t_start:g}", "TStart")
@@ -193,6 +194,20 @@ def _wind_points(f: InputFile) -> tuple:
             raise f.error(f"needs NWindVel = {n} values, got {len(values)}", label)
         lists.append(values[:n])
     return tuple(zip(*lists))
+
+
+def _check_output_step(f: InputFile, dt_out: float):
+    """OpenFAST refuses (FAST_Subs) a DT_Out below DT or not a whole
+    multiple of it; so does modesel, in one line naming DT_Out."""
+    dt = f.number("DT")
+    if dt <= 0:
+        raise f.error(f"must be > 0, got {dt:g}", "DT")
+    steps = round(dt_out / dt)
+    if steps < 1:
+        raise f.error(f"must be at least DT = {dt:g} s, got {dt_out:g} s (as OpenFAST requires)", "DT_Out")
+    if abs(steps * dt - dt_out) > 1e-6 * dt_out:
+        raise f.error(f"must be a whole multiple of DT = {dt:g} s, got {dt_out:g} s (as OpenFAST requires)",
+                      "DT_Out")
 
 
 def _end_time(f: InputFile, tmax: float) -> float:
