@@ -483,7 +483,8 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
                 blade_slope[fld] = (fine_b, analytic + (twisted[fld][1] if fld in twisted else 0.0))
         root = t.blade.root_offset
         for b in range(1, t.num_blades + 1):
-            psi = 2 * np.pi * (b - 1) / t.num_blades
+            # ElastoDyn's blade frame g: turned by a two-blader's Delta3 about the shaft (SetCoordSy)
+            psi = 2 * np.pi * (b - 1) / t.num_blades + t.delta3
             coned = elementary_rotation(0, psi) @ elementary_rotation(1, t.precone[b - 1])
             offset = coned @ np.array([0.0, 0.0, root])
             if reactions:

@@ -60,6 +60,8 @@ class Turbine:
     hub_inertia: float = 0.0
     hub_teeter_inertia: float = 0.0
     undersling: float = 0.0
+    #: a two-bladed rotor's delta-3 angle [rad] (Delta3): the blades turned by it about the shaft
+    delta3: float = 0.0
     shaft_gage: float = 0.0
     generator_inertia: float = 0.0
     nacelle_mass: float = 0.0

@@ -210,7 +210,7 @@ def read_elastodyn(path) -> Turbine:
         "PtfmHeave": num("PtfmHeave", "PtfmHeave"), "PtfmRoll": deg(num("PtfmRoll", "PtfmRoll")),
         "PtfmPitch": deg(num("PtfmPitch", "PtfmPitch")), "PtfmYaw": deg(num("PtfmYaw", "PtfmYaw")),
     }
-    undersling, hub_teeter_inertia = _two_blader(ed, ed_deck, num_blades, dofs, initial, num)
+    undersling, hub_teeter_inertia, delta3 = _two_blader(ed, ed_deck, num_blades, dofs, initial, num)
     return Turbine(
         tower=tower, blade=blade, num_blades=num_blades,
         tower_height=tower_height, tower_base_height=tower_base,
@@ -222,7 +222,7 @@ def read_elastodyn(path) -> Turbine:
         nacelle_imu=tuple(num(k, k) if ed.get(k) is not None else 0.0 for k in ("NcIMUxn", "NcIMUyn", "NcIMUzn")),
         hub_cm=num("HubCM", "HubCM"), hub_mass=num("HubMass", "HubMass"),
         hub_inertia=num("HubIner", "HubIner"), hub_teeter_inertia=hub_teeter_inertia,
-        undersling=undersling, generator_inertia=num("GenIner", "GenIner"),
+        undersling=undersling, delta3=delta3, generator_inertia=num("GenIner", "GenIner"),
         nacelle_mass=num("NacMass", "NacMass"), nacelle_yaw_inertia=num("NacYIner", "NacYIner"),
         yaw_bearing_mass=num("YawBrMass", "YawBrMass"),
         tip_mass=tuple(num(f"TipMass({k})", f"TipMass({k})") for k in per_blade),
@@ -362,13 +362,14 @@ def _gauges(ed, deck, count_label, nodes_label, nodes) -> tuple:
 
 def _two_blader(ed, deck, num_blades, dofs, initial, num):
     """(UndSling [m], hub inertia about the teeter axis through the hub's CM
-    [kg m^2]) of a two-bladed rotor, (0, 0) for other rotors, as ElastoDyn
-    sets them (ElastoDyn.f90: UndSling and the teeter inputs are read for
-    NumBl = 2 only; Hubf2Iner = HubIner_Teeter - HubMass (UndSling - HubCM)^2).
-    The teeter hinge itself is not modelled: TeetDOF and a fixed TeetDefl are
-    refused in one line naming the input."""
+    [kg m^2], Delta3 [rad]) of a two-bladed rotor, (0, 0, 0) for other rotors,
+    as ElastoDyn sets them (ElastoDyn.f90: UndSling and the teeter inputs are
+    read for NumBl = 2 only; Hubf2Iner = HubIner_Teeter - HubMass (UndSling -
+    HubCM)^2; SetCoordSy turns the blades' frame g by Delta3 about the shaft
+    from the teeter frame f, teetered or not). The teeter hinge itself is not
+    modelled: TeetDOF and a fixed TeetDefl are refused in one line naming the input."""
     if num_blades != 2:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     if dofs.get("TeetDOF"):
         raise ModeselError("unsupported: the rotor-teeter DOF is not modelled (set TeetDOF to False)",
                            file=str(deck.path), field="TeetDOF")
@@ -381,7 +382,7 @@ def _two_blader(ed, deck, num_blades, dofs, initial, num):
         raise ModeselError(f"HubIner_Teeter must be at least HubMass (UndSling - HubCM)^2 for a two-bladed rotor "
                            f"(the hub's inertia about the teeter axis through its CM would be {inertia:.4g} kg m^2)",
                            file=str(deck.path), field="HubIner_Teeter")
-    return undersling, inertia
+    return undersling, inertia, float(np.deg2rad(num("Delta3", "Delta3")))
 
 
 def _number(values: dict, key: str, label: str, deck) -> float:
