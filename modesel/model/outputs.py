@@ -71,7 +71,7 @@ CHANNEL_UNITS = {
     "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDzc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
     "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg", "BldPitch<b>": "deg",
     "RotThrust": "kN", "RotTorq": "kN-m", "LSShftTq": "kN-m", "HSShftTq": "kN-m", "HSShftPwr": "kW", "GenTq": "kN-m",
-    "GenPwr": "kW", "RotPwr": "kW",
+    "GenPwr": "kW", "RotPwr": "kW", "YawMom": "kN-m",
     "TwrBsMyt": "kN-m", "TwrBsMxt": "kN-m", "RootMyc<b>": "kN-m", "RootMxc<b>": "kN-m",
     "TwrBsMzt": "kN-m", "TwrBsFxt": "kN", "TwrBsFyt": "kN", "TwrBsFzt": "kN",
     "YawBrMxp": "kN-m", "YawBrMyp": "kN-m", "YawBrMzp": "kN-m", "YawBrFxp": "kN", "YawBrFyp": "kN", "YawBrFzp": "kN",
@@ -104,6 +104,7 @@ CHANNEL_ALIASES = {
     "YawBrFzp": ("YawBrFzn",), "YawBrMzp": ("YawBrMzn",), "TipRDzc<b>": ("TipRDzb<b>", "TwstDefl<b>"),
     "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
     "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
+    "YawMom": ("YawMomCom",),
     "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
     "LSShftFzs": ("LSSGagFzs",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
@@ -339,6 +340,7 @@ def channels(built, integ, wanted=None):
     if "Yaw" in idx or "Yaw" in model.system.fixed:
         data["NacYaw"] = np.rad2deg(coord("Yaw")[0])
     data.update(shaft_torque(built, coord, data["RotSpeed"]))
+    data.update(yaw_moment(built, coord))
     if wanted is not None:      # the coned-frame sources of the pitched-frame root loads, the shaft's
         wanted = set(wanted) | {f"{src}{n[-1]}" for n in wanted if n[:-1] in PITCHED_ROOT_LOADS
                                 for src in PITCHED_ROOT_LOADS[n[:-1]]}
@@ -476,6 +478,19 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
     torque = (dt.k_lss * q + dt.c_lss * qd) / 1e3
     return {"RotTorq": torque, "LSShftTq": torque, "RotPwr": torque * rot_speed_rpm * np.pi / 30.0,
             "HSShftTq": torque / built.model.turbine.gearbox_ratio}
+
+
+def yaw_moment(built, coord) -> dict:
+    """ServoDyn's YawMom (= YawMomCom) [kN m] where the `yaw` effect acts:
+    the moment the yaw drive resists with, YawSpr (Yaw - YawNeut) + YawDamp
+    Yaw' (ServoDyn_IO.f90: YawMomCom = -0.001 y%YawMom, y%YawMom the moment
+    applied to the nacelle, Yaw_CalcOutput, YCMode 0)."""
+    yaw = built.effect("yaw")
+    if yaw is None:
+        return {}
+    q, qd = coord("Yaw")
+    o = yaw.options
+    return {"YawMom": (o["stiffness"] * (q - o["neutral_deg"]) + o["damping"] * qd) / 1e3}
 
 
 def load_channels(built, integ, wanted=None) -> dict:

@@ -269,6 +269,8 @@ def scene_from_elastodyn(path: Path) -> Scene:
     for dof, key in (("Yaw", "NacYaw"), ("PtfmSurge", "PtfmSurge"), ("PtfmPitch", "PtfmPitch")):
         if dof not in free and initial.get(key):
             fixed[dof] = initial[key]
+    if "Yaw" not in free:       # held at NacYaw, which OpenFAST writes (NacYaw, Q_Yaw, QD_Yaw) as well
+        fixed["Yaw"] = initial.get("NacYaw", 0.0)
     sim = getattr(turbine, "simulation", {}) or {}
     return Scene(Path(path).stem, turbine, float(sim.get("TMax", 10.0)), float(sim.get("DT_Out", 0.01)),
                  ModeSet(fields), tuple(free), fixed, speed, initial,
