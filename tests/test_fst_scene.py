@@ -277,6 +277,33 @@ def test_output_step_openfast_refuses_is_refused(tmp_path, value, what):
     assert str(info.value).startswith(f"{fst}: DT_Out: ") and what in str(info.value)
 
 
+def test_nodal_output_sections_are_named_in_a_note(tmp_path):
+    """ElastoDyn's and AeroDyn's "outputs for all blade stations" (BldNd_BladesOut
+    > 0 and their nodal OutList): OpenFAST writes a channel per quantity and
+    node (B1N001TDx ...), modesel computes none of them and said nothing."""
+    fst = copy_case(tmp_path)
+    ed = fst.parent / "steady_08_ElastoDyn.dat"
+    edit(ed, "BldNd_BladesOut", "1")
+    text = ed.read_text()
+    i = text.index("BldNd_BladesOut")
+    j = text.index("OutList", i)
+    k = text.index("\n", j) + 1
+    ed.write_text(text[:k] + '"TDx"\n"MLy"\n' + text[k:])
+    notes = load_scene(fst).notes
+    assert any("steady_08_ElastoDyn.dat's nodal output section (TDx, MLy at every blade node)" in n
+               for n in notes), notes
+
+
+def test_wind_output_points_without_aerodyn(tmp_path):
+    """CompAero 0 with InflowWind: OpenFAST writes Wind1VelX/Y/Z at the
+    InflowWind output points all the same; modesel read InflowWind only with
+    AeroDyn and wrote none."""
+    fst = copy_case(tmp_path)
+    edit(fst, "CompAero", "0")
+    out = simulate(load_scene(fst), tmax=0.2).outputs
+    assert out.Wind1VelX.iloc[-1] == pytest.approx(8.0, rel=1e-3) and "RtAeroFxh" not in out.columns
+
+
 def test_cli_reports_an_unsupported_option_with_exit_code_2(tmp_path):
     fst = copy_case(tmp_path)
     edit(fst.parent / "steady_08_ServoDyn.dat", "PCMode", "5")

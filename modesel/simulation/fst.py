@@ -125,6 +125,7 @@ def scene_from_fst(path):
     scene = scene_from_elastodyn(path)
     scene.tmax, scene.dt, scene.output_start = _end_time(f, tmax), dt_out, t_start
     out_list = ed.outlist()
+    decks_with_nodal_outputs = [ed]
     notes = list(scene.notes)
     effects = dict(scene.effects)
     pitch_deg = np.rad2deg(np.atleast_1d(scene.initial.get("BlPitch", 0.0)))
@@ -149,7 +150,9 @@ def scene_from_fst(path):
         from modesel.turbine.aerodyn import aerodyn_case_options
         ad_path = f.referenced("AeroFile")
         ad = aerodyn_case_options(ad_path)
-        out_list += InputFile(ad_path, "AeroDyn").outlist()
+        ad_deck = InputFile(ad_path, "AeroDyn")
+        out_list += ad_deck.outlist()
+        decks_with_nodal_outputs.append(ad_deck)
         notes += ad["notes"]
         aero = {"aerodyn": str(ad_path.resolve()), "skew": ad["skew"]}
         if ad["air_density_default"] and "AirDens" in f:
@@ -160,14 +163,18 @@ def scene_from_fst(path):
             effects["tower_drag"] = {"aerodyn": aero["aerodyn"]}
             if "air_density" in aero:
                 effects["tower_drag"]["air_density"] = aero["air_density"]
-        if f.integer("CompInflow") == 1:
-            from modesel.turbine.inflowwind import read_inflowwind
-            effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)
-            inflow = InputFile(f.referenced("InflowFile"), "InflowWind")
-            out_list += inflow.outlist()
-            scene.wind_points = _wind_points(inflow)
-        else:
+        if f.integer("CompInflow") != 1:
             effects["wind"] = {"speed": 0.0}
+    if f.integer("CompInflow") == 1:      # the wind, also without AeroDyn: its output points (Wind<k>Vel*)
+        from modesel.turbine.inflowwind import read_inflowwind
+        effects["wind"] = read_inflowwind(f.referenced("InflowFile"), tmax)
+        inflow = InputFile(f.referenced("InflowFile"), "InflowWind")
+        out_list += inflow.outlist()
+        scene.wind_points = _wind_points(inflow)
+    for deck in decks_with_nodal_outputs:
+        if (nodal := deck.nodal_outlist()):
+            notes.append(f"{deck.path.name}'s nodal output section ({', '.join(nodal)} at every blade node) "
+                         f"is not computed by modesel")
     validate_effects(effects, str(path), path.parent)
     scene.solver = dict(SOLVER_BEM if "aero" in effects else SOLVER, **scene.solver)
     scene.effects = effects

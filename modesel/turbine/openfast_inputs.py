@@ -136,6 +136,35 @@ class InputFile:
                 names += [n for n in re.split(r"[,;\s]+", part) if n.strip("-_")]
         return names
 
+    def nodal_outlist(self) -> list:
+        """The quantities of the file's nodal output section (ElastoDyn's and
+        AeroDyn's "Outputs for all blade stations": the OutList after
+        BldNd_BladesOut), [] without one or with BldNd_BladesOut 0."""
+        start = next((i for i, line in enumerate(self.lines) if line.split()[1:2] == ["BldNd_BladesOut"]), None)
+        if start is None:
+            return []
+        try:
+            blades = int(float(self.lines[start].split()[0]))
+        except ValueError:
+            raise self.error(f"expected a number, got {self.lines[start].split()[0]!r}", "BldNd_BladesOut") from None
+        if blades <= 0:
+            return []
+        names = []
+        header = False
+        for line in self.lines[start + 1:]:
+            words = line.split()
+            if not header:
+                header = bool({"OutList", "OutList_Nodal"} & set(words[:2]))
+                continue
+            if line.lstrip()[:3].upper() == "END":
+                break
+            if line.lstrip().startswith("!"):
+                continue
+            quoted = re.findall(r'"([^"]*)"|\'([^\']*)\'', line)
+            parts = [a or b for a, b in quoted] if quoted else words[:1]
+            names += [n for part in parts for n in re.split(r"[,;\s]+", part) if n]
+        return names
+
     def unsupported(self, label: str, what: str):
         """The one-line error for an option modesel does not model: `what`
         names the feature ("tower shadow"), or, starting with "only", the
