@@ -185,11 +185,15 @@ class Reference:
     azimuth: np.ndarray | None = None   # rotor azimuth [rad], unwrapped, when the file has 'Azimuth'
 
     def align(self, outputs: pd.DataFrame, channels, *, file: str | None = None) -> Aligned:
-        """Resample this reference onto the simulation grid `outputs['Time']`.
-
-        Only simulation samples inside the overlap of both time spans (and
-        the comparison window) are kept; the reference is linearly
-        interpolated at them. `file` names the simulation in errors.
+        """Both series on one time grid: the simulation's (`outputs['Time']`)
+        samples inside the overlap of both time spans (and the comparison
+        window), with the reference linearly interpolated at them; or, where
+        the reference has fewer samples in that span (a coarser output step),
+        the reference's own samples there, with the simulation interpolated at
+        them. Interpolating the coarser series onto the finer grid would count
+        its interpolation error as the model's (a 0.1-s reference against
+        0.05-s outputs: the deck's own modes scored 0.87 % instead of 0.08 %).
+        `file` names the simulation in errors.
         """
         where = file or f"simulation of scene '{self.scene}'"
         if "Time" not in outputs.columns:
@@ -208,7 +212,13 @@ class Reference:
                 f"{self.time[-1]:g}] s" + (f" within window [{self.window[0]:g}, {self.window[1]:g}] s"
                                            if self.window else "") + " share fewer than 2 samples",
                 file=self.source, field="Time")
-        t = t_sim[keep]
+        in_ref = (self.time >= lo - eps) & (self.time <= hi + eps)
+        on_reference = 2 <= in_ref.sum() < keep.sum()      # the reference is the coarser grid
+        t = self.time[in_ref] if on_reference else t_sim[keep]
+
+        def on_grid(values):        # a simulation series on the common grid
+            return np.interp(t, t_sim, values) if on_reference else values[keep]
+
         sim_units = outputs.attrs.get("units", {}) or {}
         sim, ref = {}, {}
         for ch in channels:
@@ -223,14 +233,14 @@ class Reference:
                 if factor is None:
                     raise ModeselError(f"reference unit '{self.units[ch]}' does not match the "
                                        f"simulation unit '{sim_units[ch]}'", file=self.source, field=ch)
-            sim[ch] = outputs[ch].to_numpy(dtype=float)[keep]
-            ref[ch] = factor * np.interp(t, self.time, self.channels[ch])
+            sim[ch] = on_grid(outputs[ch].to_numpy(dtype=float))
+            ref[ch] = factor * (self.channels[ch][in_ref] if on_reference else np.interp(t, self.time, self.channels[ch]))
         az_sim = az_ref = None
         if self.azimuth is not None and "Azimuth" in outputs.columns:
             # both unwrapped before resampling, so that 360 -> 0 deg is no jump
-            az_sim = unwrapped_azimuth(outputs["Azimuth"].to_numpy(dtype=float),
-                                       sim_units.get("Azimuth", "deg"), where)[keep]
-            az_ref = np.interp(t, self.time, self.azimuth)
+            az_sim = on_grid(unwrapped_azimuth(outputs["Azimuth"].to_numpy(dtype=float),
+                                               sim_units.get("Azimuth", "deg"), where))
+            az_ref = self.azimuth[in_ref] if on_reference else np.interp(t, self.time, self.azimuth)
         return Aligned(t, sim, ref, az_sim, az_ref)
 
     def frame(self) -> pd.DataFrame:
