@@ -78,6 +78,21 @@ def test_non_numeric_text_output(tmp_path):
         read_openfast_output(path)
 
 
+def test_text_output_with_an_overflowed_field(tmp_path):
+    """OpenFAST writes a number too wide for OutFmt as '**********' (a sweep
+    with OutFmt F10.3: RtAeroMxh and three others overflowed). The whole file
+    was refused; now that field reads as NaN, the other channels as written,
+    and a study comparing the overflowed channel is refused there (its
+    finite-value check names the file and channel)."""
+    path = tmp_path / "wide.out"
+    write_text_output(path, ["Time", "Q_TFA1", "RtAeroMxh"], ["s", "m", "N-m"], [[0.0, 1.0, 5.0]])
+    path.write_text(path.read_text() + "0.01\t0.5\t**********\n")
+    df = read_openfast_output(path)
+    assert df["Q_TFA1"].tolist() == [1.0, 0.5] and df["RtAeroMxh"].iloc[0] == 5.0
+    assert np.isnan(df["RtAeroMxh"].iloc[1])
+    assert df.attrs["units"]["RtAeroMxh"] == "N-m"
+
+
 def test_truncated_binary_output(tmp_path):
     path = tmp_path / "cut.outb"
     path.write_bytes(OUTB.read_bytes()[:200])

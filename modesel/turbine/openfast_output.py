@@ -91,12 +91,16 @@ def read_openfast_output(path) -> pd.DataFrame:
         check_binary_header(path)
     try:
         output = FASTOutputFile(str(path))
+        names = [str(n) for n in output.info["attribute_names"]]
+        units = [str(u) for u in (output.info.get("attribute_units") or [""] * len(names))]
+        data = np.asarray(output.data, dtype=float)
+        description = str(output.info.get("description", ""))
     except Exception as exc:  # openfast_io raises bare ValueError/struct.error/... on bad files
         reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ModeselError(f"unreadable OpenFAST output: {reason}", file=str(path)) from None
-    names = [str(n) for n in output.info["attribute_names"]]
-    units = [str(u) for u in (output.info.get("attribute_units") or [""] * len(names))]
-    data = np.asarray(output.data, dtype=float)
+        text = _text_with_overflow(path) if path.suffix.lower() == ".out" and "*" in reason else None
+        if text is None:
+            raise ModeselError(f"unreadable OpenFAST output: {reason}", file=str(path)) from None
+        names, units, data, description = text
     if data.ndim != 2 or data.shape[1] != len(names) or len(units) != len(names):
         raise ModeselError(f"unreadable OpenFAST output: {len(names)} channel names, {len(units)} units, "
                            f"data of shape {data.shape}", file=str(path))
@@ -110,8 +114,35 @@ def read_openfast_output(path) -> pd.DataFrame:
     frame = pd.DataFrame(data, columns=names)
     frame.attrs["units"] = dict(zip(names, units))
     frame.attrs["source"] = str(path)
-    frame.attrs["description"] = str(output.info.get("description", ""))
+    frame.attrs["description"] = description
     return frame
+
+
+def _text_with_overflow(path):
+    """(names, units, data, description) of a text .out whose OutFmt field
+    overflowed somewhere (Fortran writes a too-wide number as '*****'), read
+    line by line with such a field as NaN: a channel that holds one is then
+    refused only where it is compared (the reference's finite-value check),
+    not the whole file. None if the file does not have the .out layout."""
+    lines = Path(path).read_text(errors="replace").splitlines()
+    start = next((i for i, line in enumerate(lines) if line.split()[:1] == ["Time"]), None)
+    if start is None or start + 1 >= len(lines):
+        return None
+    names = lines[start].split()
+    units = [u.strip("()") for u in lines[start + 1].split()]
+    rows = []
+    for line in lines[start + 2:]:
+        tokens = line.split()
+        if not tokens:
+            continue
+        if len(tokens) != len(names):
+            return None
+        try:
+            rows.append([np.nan if set(t) == {"*"} else float(t) for t in tokens])
+        except ValueError:
+            return None
+    description = next((line.strip() for line in lines[:start] if line.strip().startswith("Description")), "")
+    return names, units, np.array(rows, dtype=float).reshape(-1, len(names)), description
 
 
 # ------------------------------------------------------------------ linearisation (.lin) files
