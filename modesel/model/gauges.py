@@ -33,6 +33,14 @@ a2 = z, a3 = -y), ThetaFA = -slope_FA, ThetaSS = slope_SS; FLxt = F . t1,
 FLyt = -F . t3, FLzt = F . t2. Written on ElastoDyn's tower nodes with a
 fixed tower base.
 
+Motions at the gauge nodes, as ElastoDyn writes them: Spn<i>TDxb<b> ...
+TDzb [m], the node's displacement from its undeflected place on the pitch
+axis in the pitched frame j; Spn<i>RDxb, RDyb [deg], ThetaIP and ThetaOoP;
+Spn<i>ALxb ... ALzb [m/s^2], its acceleration in the section's axes n, and
+ALgxb ... the same less gravity's (an accelerometer's); the tower's
+TwHt<i>TDxt ... on a1, -a3, a2, RDxt = ThetaSS, RDyt = -ThetaFA, ALxt ...
+on t1, -t3, t2.
+
 The accelerations are those of the solved equations: a_j = dv_j/dt along the
 state's own motion, (v_j(q + h qd, qd + h qdd) - v_j(q - h qd, qd - h qdd)) /
 2h, h = 1e-5 s (exact to O(h^2)). Written where the blade is integrated on
@@ -47,10 +55,15 @@ import numpy as np
 
 from modesel.multibody.kinematics import PointSet
 
-#: a blade gauge channel: gauge i, F (force) or M (moment), axis, blade b
-GAUGE_CHANNEL = re.compile(r"Spn([1-9])([FM])L([xyz])b([1-9])")
-#: a tower gauge channel: gauge i, F or M, axis
-TOWER_GAUGE_CHANNEL = re.compile(r"TwHt([1-9])([FM])L([xyz])t")
+#: a blade gauge channel: gauge i, quantity (FL force, ML moment, TD deflection,
+#: RD rotation, AL acceleration, ALg with gravity), axis, blade b
+GAUGE_CHANNEL = re.compile(r"Spn([1-9])(FL|ML|TD|RD|ALg|AL)([xyz])b([1-9])")
+#: a tower gauge channel: gauge i, quantity, axis
+TOWER_GAUGE_CHANNEL = re.compile(r"TwHt([1-9])(FL|ML|TD|RD|ALg|AL)([xyz])t")
+#: the gauge quantities' units
+GAUGE_UNITS = {"FL": "kN", "ML": "kN-m", "TD": "m", "RD": "deg", "AL": "m/s^2", "ALg": "m/s^2"}
+#: the quantities and axes ElastoDyn writes (no rotation about the beam's axis)
+GAUGE_QUANTITIES = [(k, a) for k in ("FL", "ML", "TD", "AL", "ALg") for a in "xyz"] + [("RD", "x"), ("RD", "y")]
 #: the yaw bearing's loads a tower gauge starts from
 YAW_BEARING_LOADS = ("YawBrFxp", "YawBrFyp", "YawBrFzp", "YawBrMxp", "YawBrMyp", "YawBrMzp")
 #: time step of the acceleration's central difference [s]
@@ -59,8 +72,8 @@ STEP = 1e-5
 
 def gauge_channels(turbine) -> list:
     """The gauge channels the deck's blade gauges (NBlGages, BldGagNd) allow."""
-    return [f"Spn{i}{k}L{a}b{b}" for b in range(1, turbine.num_blades + 1)
-            for i in range(1, len(turbine.blade_gauges) + 1) for k in "FM" for a in "xyz"]
+    return [f"Spn{i}{k}{a}b{b}" for b in range(1, turbine.num_blades + 1)
+            for i in range(1, len(turbine.blade_gauges) + 1) for k, a in GAUGE_QUANTITIES]
 
 
 def wanted_gauges(model, wanted) -> dict:
@@ -181,6 +194,7 @@ class _BladeGauges:
         blade = turbine.blade
         self.twist = {b: np.interp(ps[b].s0[:self.nodes, 2], blade.span - blade.span[0], blade.twist)
                       for b in gauges}
+        self.span = {b: ps[b].s0[:self.nodes, 2] for b in gauges}         # ElastoDyn's RNodes from the root
 
     def __call__(self, st, k):
         out = {}
@@ -204,8 +218,16 @@ class _BladeGauges:
                 theta_ip, theta_oop = -sy, sx
                 axes = small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj
                 f, m = _section(load, pos, g, np.arange(g + 1, len(mass)), 0.25 * self.dr * j3, axes)
-                for a, fa, ma in zip("xyz", f, m):
-                    out[f"Spn{i}FL{a}b{b}"], out[f"Spn{i}ML{a}b{b}"] = fa, ma
+                # motions: the node's displacement from its undeflected place in the pitched
+                # frame (TD), its slopes' rotation (RD: ThetaIP, ThetaOoP), its acceleration
+                # in the section's axes, without and with gravity's (AL, ALg: a - g)
+                moved = st.pos[name][g] - st.origin[self.index[b]] - self.span[b][g] * j3
+                acc = st.acc[name][g]
+                values = {"FL": f, "ML": m, "TD": np.array([j1, j2, j3]) @ moved, "AL": axes @ acc,
+                          "ALg": axes @ (acc - self.gravity),
+                          "RD": np.degrees([theta_ip, theta_oop, 0.0])}
+                for k, a in GAUGE_QUANTITIES:
+                    out[f"Spn{i}{k}{a}b{b}"] = values[k]["xyz".index(a)]
         return out
 
 
@@ -236,8 +258,10 @@ class _TowerGauges:
         self.dh = turbine.tower.length / self.nodes
         self.mass = np.asarray(eq.system.body("tower").node_mass, float)[:self.nodes]
         self.top = eq.body_index["yaw_bearing"]
+        self.root = eq.body_index["tower"]
         self.base = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])   # a1, a2, a3
-        x = PointSet.of_body(eq, "tower").s0[:self.nodes, 2] / turbine.tower.length
+        self.height = PointSet.of_body(eq, "tower").s0[:self.nodes, 2]     # ElastoDyn's HNodes
+        x = self.height / turbine.tower.length
         self.slope = {}
         for fld in ("tower_fa", "tower_ss"):
             dofs = model.field_dofs.get(fld, ())
@@ -270,6 +294,12 @@ class _TowerGauges:
             axes = np.array([t1, -t3, t2])            # x, y, z: FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
             f, m = _section(load, pos, g, np.arange(g + 1, n), 0.25 * self.dh * self.base[1], axes,
                             f_top, np.cross(r_top - pos[g], f_top) + m_top)
-            for a, fa, ma in zip("xyz", f, m):
-                out[f"TwHt{i}FL{a}t"], out[f"TwHt{i}ML{a}t"] = fa, ma
+            # motions (ElastoDyn's rTPT on a1, -a3, a2; AngPosXF: ThetaSS, -ThetaFA; LinAccET on t)
+            moved = pos[g] - st.origin[self.root] - self.height[g] * self.base[1]
+            acc = st.acc["tower"][g]
+            values = {"FL": f, "ML": m, "TD": self.base[[0, 2, 1]] @ moved * np.array([1.0, -1.0, 1.0]),
+                      "AL": axes @ acc, "ALg": axes @ (acc - self.gravity),
+                      "RD": np.degrees([theta_ss, -theta_fa, 0.0])}
+            for k, a in GAUGE_QUANTITIES:
+                out[f"TwHt{i}{k}{a}t"] = values[k]["xyz".index(a)]
         return out

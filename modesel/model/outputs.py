@@ -58,8 +58,8 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
-from modesel.model.gauges import (GAUGE_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, gauge_loads, wanted_gauges,
-                                  wanted_tower_gauges)
+from modesel.model.gauges import (GAUGE_CHANNEL, GAUGE_UNITS, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, gauge_loads,
+                                  wanted_gauges, wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
@@ -125,7 +125,7 @@ SHAFT_LOAD_SOURCES = ("LSShftFys", "LSShftFzs", "LSSTipMys", "LSSTipMzs")
 SHAFT_LOADS = ("LSShftFya", "LSShftFza", "LSSTipMya", "LSSTipMza", "LSSGagMya", "LSSGagMza", "LSSGagMys",
                "LSSGagMzs")
 _FORCE_CHANNELS = re.compile(r"(TwrBs(F[xyz]|Mz)t|YawBr[FM][xyz]p|Root(F[xyz]|Mz)c\d|Root[MF][xy]b\d|"
-                             r"LSShftF[yz][as]|LSS(Tip|Gag)M[yz][as]|TwHt\d[FM]L[xyz]t)")
+                             r"LSShftF[yz][as]|LSS(Tip|Gag)M[yz][as]|TwHt\d(FL|ML|TD|RD|ALg|AL)[xyz]t)")
 
 
 def needs_reaction_forces(wanted) -> bool:
@@ -258,7 +258,7 @@ def _unit(name: str) -> str | None:
     if re.fullmatch(r"Wind[1-9]Vel[XYZ]", name):
         return "m/s"
     if m := (GAUGE_CHANNEL.fullmatch(name) or TOWER_GAUGE_CHANNEL.fullmatch(name)):
-        return "kN" if m.group(2) == "F" else "kN-m"
+        return GAUGE_UNITS[m.group(2)]
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
             try:
