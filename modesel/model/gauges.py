@@ -15,6 +15,13 @@ outboard along the blade's pitched axis j3:
     M = (r_tip - r_g) x T_tip + sum_{j>g} ((r_j - r_g) x T_j + M_j)
         + (DR_g / 4 j3) x (T_g / 2) + M_g / 2
 
+On blades with AeroDyn, F_j and M_j are the aerodynamic loads as OpenFAST's
+mesh mapping hands them to ElastoDyn's nodes (each lumped piece of AeroDyn's
+line on its nearest node, `BladeAerodynamics.openfast_node_loads`), not the
+transfer the integration uses (a lumped station load shared between its two
+neighbouring nodes): both keep the blade's total force and moment, but split
+a station's load differently at a gauge (Spn3MLyb1's mean +2.7 % with the latter).
+
 The axes (ElastoDyn's n1, n2, n3 of node g): the pitched blade axes turned
 about j3 by the structural twist (Lxb, Lyb), then by SmllRotTrans of the
 section's slopes (ThetaLxb, ThetaLyb, 0), ThetaIP = -slope_y and ThetaOoP =
