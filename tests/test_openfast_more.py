@@ -344,16 +344,19 @@ def test_tower_strain_gauges_match_openfast():
     gauge_errors("TwHt", 18, ("MLzt", "FLyt"), 0.02)
 
 
-def test_strain_gauge_motions_match_openfast():
+def test_strain_gauge_and_tip_motions_match_openfast():
     """The gauges' motions in case strain_gauges (not computed before):
     displacement from the undeflected place (TD), slope rotations (RD) and
     accelerations in the section's axes without and with gravity's (AL, ALg),
-    12 blade and 8 tower channels. NRMSE <= 0.2 %; means within 0.1 % (the
-    small lateral ones, TwHt3ALyt 0.75 mm/s^2 on a swing of 19, within 1 %)."""
+    12 blade and 8 tower channels; and the blade tips' (TipAL*, TipALg*,
+    TipRD*, TipClrnc / TwrClrnc: 10 channels). NRMSE <= 0.2 %; means within
+    0.1 % (the small lateral ones, TwHt3ALyt 0.75 mm/s^2 on a swing of 19,
+    within 1 %)."""
     ref = run("strain_gauges")[1]
-    names = [c for c in ref.columns if c[:3] in ("Spn", "TwH") and any(q in c for q in ("TD", "RD", "AL"))]
+    names = [c for c in ref.columns if (c[:3] in ("Spn", "TwH") and any(q in c for q in ("TD", "RD", "AL")))
+             or c.startswith(("TipAL", "TipRD", "TipClrnc", "TwrClrnc"))]
     means, errs, text = means_and_errors("strain_gauges", names)
-    assert len(means) == 20
+    assert len(means) == 30
     assert all(abs(v) <= (0.01 if c == "TwHt3ALyt" else 1e-3) for c, v in means.items()), text
     assert all(v <= 0.002 for v in errs.values()), text
 

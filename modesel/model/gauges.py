@@ -48,6 +48,13 @@ ALgxb ... the same less gravity's (an accelerometer's); the tower's
 TwHt<i>TDxt ... on a1, -a3, a2, RDxt = ThetaSS, RDyt = -ThetaFA, ALxt ...
 on t1, -t3, t2.
 
+Blade tips (ElastoDyn's "Blade (1-3) Tip Motions"): TipALxb<b> ... TipALzb
+and TipALgxb ... [m/s^2], the tip's acceleration (and less gravity's) in the
+axes n of the last node (BldNodes); TipRDxb, TipRDyb [deg], ThetaIP and
+ThetaOoP of the tip's slopes; TipClrnc<b> (= TwrClrnc<b>) [m], from the
+tower top to the tip: its distance where the tip is above the yaw bearing,
+else its distance from the yaw axis (the nacelle frame's x and y).
+
 The accelerations are those of the solved equations: a_j = dv_j/dt along the
 state's own motion, (v_j(q + h qd, qd + h qdd) - v_j(q - h qd, qd - h qdd)) /
 2h, h = 1e-5 s (exact to O(h^2)). Written where the blade is integrated on
@@ -67,6 +74,10 @@ from modesel.multibody.kinematics import PointSet
 GAUGE_CHANNEL = re.compile(r"Spn([1-9])(FL|ML|TD|RD|ALg|AL)([xyz])b([1-9])")
 #: a tower gauge channel: gauge i, quantity, axis
 TOWER_GAUGE_CHANNEL = re.compile(r"TwHt([1-9])(FL|ML|TD|RD|ALg|AL)([xyz])t")
+#: a blade-tip motion channel: quantity (AL, ALg, RD), axis, blade; or TipClrnc, blade
+TIP_CHANNEL = re.compile(r"Tip(ALg|AL|RD)([xyz])b([1-9])|TipClrnc([1-9])")
+#: the tip channels ElastoDyn writes per blade
+TIP_QUANTITIES = [f"Tip{k}{a}b" for k in ("AL", "ALg") for a in "xyz"] + ["TipRDxb", "TipRDyb", "TipClrnc"]
 #: the gauge quantities' units
 GAUGE_UNITS = {"FL": "kN", "ML": "kN-m", "TD": "m", "RD": "deg", "AL": "m/s^2", "ALg": "m/s^2"}
 #: the quantities and axes ElastoDyn writes (no rotation about the beam's axis)
@@ -96,6 +107,18 @@ def wanted_gauges(model, wanted) -> dict:
                 int(m.group(4)) <= model.turbine.num_blades and f"blade{m.group(4)}" in model.tips:
             out.setdefault(int(m.group(4)), set()).add(int(m.group(1)))
     return {b: sorted(g) for b, g in out.items()}
+
+
+def wanted_tips(model, wanted) -> list:
+    """The blades (numbers) whose tip channels `wanted` names (None: every
+    blade), where the blades are on ElastoDyn's nodes."""
+    if not model.blade_elastodyn_nodes:
+        return []
+    blades = [b for b in range(1, model.turbine.num_blades + 1) if f"blade{b}" in model.tips]
+    if wanted is None:
+        return blades
+    found = {int(m.group(3) or m.group(4)) for n in wanted if (m := TIP_CHANNEL.fullmatch(n))}
+    return [b for b in blades if b in found]
 
 
 def small_rotation(t1, t2, t3=0.0) -> np.ndarray:
@@ -146,24 +169,28 @@ class _States:
         return self
 
 
-def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bearing) -> dict:
+def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bearing, tips=()) -> dict:
     """The gauge channels of `blade_gauges` {blade: gauge numbers} and
-    `tower_gauges` (gauge numbers) (module doc) at the output times of
-    `integ`; accelerations: {free coordinate: qdd}; yaw_bearing: the
-    YAW_BEARING_LOADS histories [kN, kN m] (for the tower's)."""
+    `tower_gauges` (gauge numbers), and the tip channels of blades `tips`
+    (module doc) at the output times of `integ`; accelerations: {free
+    coordinate: qdd}; yaw_bearing: the YAW_BEARING_LOADS histories [kN, kN m]
+    (for the tower's)."""
     eq = built.eq
     sets = {f"blade{b}": PointSet.of_body(eq, f"blade{b}") for b in blade_gauges}
     if tower_gauges:
         sets["tower"] = PointSet.of_body(eq, "tower")
+    for b in tips:
+        sets[f"tip{b}"] = _tip_points(built, b)
     states = _States(built, integ, accelerations, sets)
     aero = built.effect("aero")
     aero = aero if aero is not None and hasattr(aero, "augmented") else None
     blade = _BladeGauges(built, blade_gauges, aero) if blade_gauges else None
     tower = _TowerGauges(built, tower_gauges, yaw_bearing) if tower_gauges else None
+    tip = _Tips(built, tips) if tips else None
     out = {}
     for k in range(len(integ.t)):
         st = states.at(k)
-        for part in (blade, tower):
+        for part in (blade, tower, tip):
             if part is not None:
                 for name, value in part(st, k).items():
                     out.setdefault(name, np.empty(len(integ.t)))[k] = value
@@ -181,6 +208,76 @@ def _section(load, pos, g, outer, arm, axes, force0=None, moment0=None):
     if force0 is not None:
         force, moment = force + force0, moment + moment0
     return axes @ force / 1e3, axes @ moment / 1e3
+
+
+def _tip_points(built, b):
+    """blade b's tip as a point set: at the blade length on its axis, its
+    displacement per coordinate and shortening as the model's tip has them."""
+    eq = built.eq
+    body = eq.system.body(f"blade{b}")
+    tip = built.model.tips[f"blade{b}"]
+    phi = np.zeros((1, 3, body.n_elastic))
+    shortening = np.zeros((1, body.n_elastic, body.n_elastic))
+    for j, dof in enumerate(body.dofs):
+        phi[0, :, j] = tip["displacement"].get(dof, 0.0)
+    if tip.get("shortening") is not None:
+        dofs, G = tip["shortening"]
+        at = [list(body.dofs).index(d) for d in dofs]
+        shortening[0][np.ix_(at, at)] = np.asarray(G, float)
+    return PointSet.of_points(eq, f"blade{b}", np.array([[0.0, 0.0, tip["length"]]]), phi, shortening)
+
+
+def _section_axes(R, twist, slope, qe):
+    """ElastoDyn's axes n (rows) of a blade section (module doc) and its
+    (ThetaIP, ThetaOoP) [rad]: the pitched frame R's axes turned by the
+    structural twist, then by the small rotation of the slopes `slope` (3, ne)."""
+    j1, j2, j3 = R[:, 0], R[:, 1], R[:, 2]
+    c, s = np.cos(twist), np.sin(twist)
+    lj = np.array([c * j1 - s * j2, s * j1 + c * j2, j3])
+    sx, sy = (slope @ qe)[:2] if len(qe) else (0.0, 0.0)
+    theta_ip, theta_oop = -sy, sx
+    return small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj, theta_ip, theta_oop
+
+
+class _Tips:
+    """The blade tips' channels at one output time (module doc)."""
+
+    def __init__(self, built, blades):
+        self.built, self.blades = built, blades
+        model, eq = built.model, built.eq
+        turbine = model.turbine
+        self.gravity = np.array([0.0, 0.0, -turbine.gravity])
+        nodes = int(turbine.blade_nodes)
+        blade = turbine.blade
+        self.index = {b: eq.body_index[f"blade{b}"] for b in blades}
+        self.idx = {b: PointSet.of_body(eq, f"blade{b}").idx for b in blades}
+        last = PointSet.of_body(eq, f"blade{blades[0]}").s0[nodes - 1, 2]
+        self.last = (np.interp(last, blade.span - blade.span[0], blade.twist),
+                     {b: model.station_slopes(f"blade{b}", np.array([last]))[0] for b in blades})
+        self.tip_slope = {b: model.station_slopes(f"blade{b}", np.array([blade.length]))[0] for b in blades}
+        self.nacelle = eq.body_index["nacelle"]
+        self.top = eq.body_index["yaw_bearing"] if any(x.name == "yaw_bearing" for x in eq.system.bodies) \
+            else None
+
+    def __call__(self, st, k):
+        out = {}
+        R_n = st.R[self.nacelle]
+        r_top = st.origin[self.top] if self.top is not None else self._tower_top(st)
+        for b in self.blades:
+            qe = st.q_all[self.idx[b]]
+            axes, _, _ = _section_axes(st.R[self.index[b]], self.last[0], self.last[1][b], qe)
+            _, theta_ip, theta_oop = _section_axes(st.R[self.index[b]], 0.0, self.tip_slope[b], qe)
+            acc = st.acc[f"tip{b}"][0]
+            for a, v, vg in zip("xyz", axes @ acc, axes @ (acc - self.gravity)):
+                out[f"TipAL{a}b{b}"], out[f"TipALg{a}b{b}"] = v, vg
+            out[f"TipRDxb{b}"], out[f"TipRDyb{b}"] = np.degrees(theta_ip), np.degrees(theta_oop)
+            x, y, z = R_n.T @ (st.pos[f"tip{b}"][0] - r_top)
+            out[f"TipClrnc{b}"] = np.sqrt(x * x + y * y + z * z) if z > 0.0 else np.hypot(x, y)
+        return out
+
+    def _tower_top(self, st):
+        """The nacelle's origin: the tower top, where the yaw bearing is no body of its own."""
+        return st.origin[self.nacelle]
 
 
 class _BladeGauges:
@@ -219,11 +316,7 @@ class _BladeGauges:
             qe = st.q_all[self.idx[b]]
             for i in gs:
                 g = self.built.model.turbine.blade_gauges[i - 1] - 1
-                c, s = np.cos(self.twist[b][g]), np.sin(self.twist[b][g])
-                lj = np.array([c * j1 - s * j2, s * j1 + c * j2, j3])
-                sx, sy = (self.slopes[b][g] @ qe)[:2] if len(qe) else (0.0, 0.0)
-                theta_ip, theta_oop = -sy, sx
-                axes = small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj
+                axes, theta_ip, theta_oop = _section_axes(R, self.twist[b][g], self.slopes[b][g], qe)
                 f, m = _section(load, pos, g, np.arange(g + 1, len(mass)), 0.25 * self.dr * j3, axes)
                 # motions: the node's displacement from its undeflected place in the pitched
                 # frame (TD), its slopes' rotation (RD: ThetaIP, ThetaOoP), its acceleration

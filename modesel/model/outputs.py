@@ -58,8 +58,8 @@ import re
 import numpy as np
 
 from modesel.model.effects.base import Effect
-from modesel.model.gauges import (GAUGE_CHANNEL, GAUGE_UNITS, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS, gauge_loads,
-                                  wanted_gauges, wanted_tower_gauges)
+from modesel.model.gauges import (GAUGE_CHANNEL, GAUGE_UNITS, TIP_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS,
+                                  gauge_loads, wanted_gauges, wanted_tips, wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
 from modesel.vocabulary import dof_unit, parse_dof
 
@@ -104,7 +104,7 @@ CHANNEL_ALIASES = {
     "YawBrFzp": ("YawBrFzn",), "YawBrMzp": ("YawBrMzn",), "TipRDzc<b>": ("TipRDzb<b>", "TwstDefl<b>"),
     "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
     "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
-    "YawMom": ("YawMomCom",),
+    "YawMom": ("YawMomCom",), "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
     "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
     "LSShftFzs": ("LSSGagFzs",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
@@ -259,6 +259,8 @@ def _unit(name: str) -> str | None:
         return "m/s"
     if m := (GAUGE_CHANNEL.fullmatch(name) or TOWER_GAUGE_CHANNEL.fullmatch(name)):
         return GAUGE_UNITS[m.group(2)]
+    if m := TIP_CHANNEL.fullmatch(name):
+        return "m" if m.group(4) else GAUGE_UNITS[m.group(1)]
     for prefix, rate in (("Q_", False), ("QD_", True)):
         if name.startswith(prefix):
             try:
@@ -508,10 +510,11 @@ def load_channels(built, integ, wanted=None) -> dict:
     accel = _tower_top_coordinates(built) if wanted is None or set(ACCELERATION_CHANNELS) & set(wanted) else None
     gauges = wanted_gauges(built.model, wanted)
     tower_gauges = wanted_tower_gauges(built.model, wanted)
-    if not with_channels and not reactions and accel is None and not gauges and not tower_gauges:
+    tips = wanted_tips(built.model, wanted)
+    if not with_channels and not reactions and accel is None and not gauges and not tower_gauges and not tips:
         return {}
     solved = accel or []        # the coordinates whose accelerations the pass returns
-    if gauges or tower_gauges:
+    if gauges or tower_gauges or tips:
         solved = solved + [n for n in built.model.system.free if n not in solved]
     names = [c for e in with_channels for c in e.CHANNELS]
     rhs = built.rhs(all_rows=True)
@@ -528,8 +531,8 @@ def load_channels(built, integ, wanted=None) -> dict:
         out.update(tower_top_accelerations(built, integ, qdd))
     if not all(n in out for n in YAW_BEARING_LOADS):
         tower_gauges = []
-    if gauges or tower_gauges:
-        out.update(gauge_loads(built, integ, qdd, gauges, tower_gauges, out))
+    if gauges or tower_gauges or tips:
+        out.update(gauge_loads(built, integ, qdd, gauges, tower_gauges, out, tips))
     return out
 
 
