@@ -320,15 +320,16 @@ def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path
     (simulated from t = 0). The channels the case's OutLists name that
     modesel does not compute are listed in a note (steady_08's 89 are all
     computed since session 17: two of ElastoDyn's are added to its OutList
-    here, the nacelle IMU's rotational acceleration and the LSS tip's
-    acceleration; the blade-tip clearance, the first choice here before,
-    is computed since session 18), as are the
+    here, the platform's acceleration and the LSS tip's angle about the
+    nonrotating axis; the blade-tip clearance and then the nacelle IMU's
+    rotational acceleration, the choices here before, are computed since
+    session 18), as are the
     scene's notes (BlPitch differing from PitNeut); RotSpeed is computed."""
     fst = copy_case(tmp_path)
     ed = fst.parent / "steady_08_ElastoDyn.dat"
     lines = ed.read_text().splitlines()
     first = next(i for i, line in enumerate(lines) if line.split()[:1] == ["OutList"]) + 1
-    ed.write_text("\n".join(lines[:first] + ['"NcIMURAxs"', '"LSSTipAxa"'] + lines[first:]) + "\n")
+    ed.write_text("\n".join(lines[:first] + ['"PtfmTAxt"', '"TeetPya"'] + lines[first:]) + "\n")
     edit(fst, "TMax", "1.0")
     edit(fst, "TStart", "0.5")
     for k in (1, 2, 3):
@@ -346,7 +347,7 @@ def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path
     assert short.returncode == 2 and len(short.stderr.strip().splitlines()) == 1 and "TStart" in short.stderr
     note = next(line for line in run.stdout.splitlines() if "OutLists" in line)
     missing = note.rsplit("): ", 1)[1].split(", ")
-    assert sorted(missing) == ["LSSTipAxa", "NcIMURAxs"] and "of the 91 channels" in note, note
+    assert sorted(missing) == ["PtfmTAxt", "TeetPya"] and "of the 91 channels" in note, note
     assert any("note:" in line and "PitNeut" in line for line in run.stdout.splitlines())
 
 

@@ -82,7 +82,10 @@ CHANNEL_UNITS = {
     "RtAeroFyh": "N", "RtAeroFzh": "N", "RtAeroMyh": "N-m", "RtAeroMzh": "N-m",
     "YawBrTDxp": "m", "YawBrTDyp": "m", "YawBrTDzp": "m", "TipRDzc<b>": "deg",
     "YawBrTAxp": "m/s^2", "YawBrTAyp": "m/s^2", "YawBrTAzp": "m/s^2", "NcIMUTAxs": "m/s^2", "NcIMUTAys": "m/s^2",
-    "NcIMUTAzs": "m/s^2",
+    "NcIMUTAzs": "m/s^2", "NcIMUTAgxs": "m/s^2", "NcIMUTAgys": "m/s^2", "NcIMUTAgzs": "m/s^2",
+    "NcIMUTVxs": "m/s", "NcIMUTVys": "m/s", "NcIMUTVzs": "m/s", "NcIMURVxs": "deg/s", "NcIMURVys": "deg/s",
+    "NcIMURVzs": "deg/s", "NcIMURAxs": "deg/s^2", "NcIMURAys": "deg/s^2", "NcIMURAzs": "deg/s^2",
+    "LSSTipAxa": "deg/s^2", "LSSGagAxa": "deg/s^2", "HSShftA": "deg/s^2",
     "LSShftFys": "kN", "LSShftFzs": "kN", "LSShftFya": "kN", "LSShftFza": "kN",
     "LSSTipMys": "kN-m", "LSSTipMzs": "kN-m", "LSSTipMya": "kN-m", "LSSTipMza": "kN-m",
     "LSSGagMys": "kN-m", "LSSGagMzs": "kN-m", "LSSGagMya": "kN-m", "LSSGagMza": "kN-m",
@@ -104,7 +107,7 @@ CHANNEL_ALIASES = {
     "YawBrFzp": ("YawBrFzn",), "YawBrMzp": ("YawBrMzn",), "TipRDzc<b>": ("TipRDzb<b>", "TwstDefl<b>"),
     "RotTorq": ("LSShftTq", "LSShftMxa", "LSShftMxs", "LSSGagMxa", "LSSGagMxs"),
     "RotThrust": ("LSShftFxa", "LSShftFxs", "LSSGagFxa", "LSSGagFxs"), "RotPwr": ("LSShftPwr",),
-    "YawMom": ("YawMomCom",), "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
+    "YawMom": ("YawMomCom",), "LSSTipAxa": ("LSSTipA", "LSSTipAxs"), "LSSGagAxa": ("LSSGagA", "LSSGagAxs"), "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
     "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
     "LSShftFzs": ("LSSGagFzs",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),
@@ -511,9 +514,11 @@ def load_channels(built, integ, wanted=None) -> dict:
     gauges = wanted_gauges(built.model, wanted)
     tower_gauges = wanted_tower_gauges(built.model, wanted)
     tips = wanted_tips(built.model, wanted)
-    if not with_channels and not reactions and accel is None and not gauges and not tower_gauges and not tips:
+    rotor = [c for c in ("GeAz", "DrTr") if c in built.model.system.free] \
+        if wanted is None or set(SHAFT_ACCELERATIONS) & set(wanted) else []
+    if not (with_channels or reactions or accel is not None or gauges or tower_gauges or tips or rotor):
         return {}
-    solved = accel or []        # the coordinates whose accelerations the pass returns
+    solved = (accel or []) + [c for c in rotor if c not in (accel or [])]   # the accelerations the pass returns
     if gauges or tower_gauges or tips:
         solved = solved + [n for n in built.model.system.free if n not in solved]
     names = [c for e in with_channels for c in e.CHANNELS]
@@ -529,6 +534,8 @@ def load_channels(built, integ, wanted=None) -> dict:
         out.update({n: values[:, len(rows) + len(solved) + k] for k, n in enumerate(names)})
     if accel is not None:
         out.update(tower_top_accelerations(built, integ, qdd))
+    if wanted is None or set(SHAFT_ACCELERATIONS) & set(wanted):
+        out.update(shaft_accelerations(built.model, integ, qdd))
     if not all(n in out for n in YAW_BEARING_LOADS):
         tower_gauges = []
     if gauges or tower_gauges or tips:
@@ -536,9 +543,26 @@ def load_channels(built, integ, wanted=None) -> dict:
     return out
 
 
+#: ElastoDyn's shaft accelerations [deg/s^2] (`shaft_accelerations`)
+SHAFT_ACCELERATIONS = ("LSSTipAxa", "LSSGagAxa", "HSShftA")
+
+
+def shaft_accelerations(model, integ, qdd) -> dict:
+    """LSSTipAxa = (GeAz + DrTr)'' (the rotor's), LSSGagAxa = GeAz'' and
+    HSShftA = GBRatio GeAz'' [deg/s^2] (ElastoDyn.f90 CalcOutput), from the
+    solved accelerations `qdd` {coordinate: values} (a held or turned
+    coordinate's from its motion)."""
+    ge = coordinate_history(model, integ, "GeAz", qdd)[2]
+    dt = coordinate_history(model, integ, "DrTr", qdd)[2]
+    return {"LSSTipAxa": np.degrees(ge + dt), "LSSGagAxa": np.degrees(ge),
+            "HSShftA": np.degrees(model.turbine.gearbox_ratio * ge)}
+
+
 #: ElastoDyn's accelerations [m/s^2] modesel writes where the tower base is fixed
 #: (`tower_top_accelerations`): the tower top's in frame p, the nacelle IMU's in the shaft frame
-ACCELERATION_CHANNELS = ("YawBrTAxp", "YawBrTAyp", "YawBrTAzp", "NcIMUTAxs", "NcIMUTAys", "NcIMUTAzs")
+ACCELERATION_CHANNELS = ("YawBrTAxp", "YawBrTAyp", "YawBrTAzp", "NcIMUTAxs", "NcIMUTAys", "NcIMUTAzs",
+                         "NcIMUTAgxs", "NcIMUTAgys", "NcIMUTAgzs", "NcIMUTVxs", "NcIMUTVys", "NcIMUTVzs",
+                         "NcIMURVxs", "NcIMURVys", "NcIMURVzs", "NcIMURAxs", "NcIMURAys", "NcIMURAzs")
 
 
 def _tower_top_coordinates(built) -> list | None:
@@ -583,13 +607,16 @@ def tower_top_accelerations(built, integ, qdd) -> dict:
         return coordinate_history(model, integ, name, qdd)
 
     acc = np.zeros((n, 3))
+    vel = np.zeros((n, 3))
     for d, vec in tip["displacement"].items():
         acc += np.outer(state(d)[2], vec)
+        vel += np.outer(state(d)[1], vec)
     if tip.get("shortening") is not None:
         dofs, G = tip["shortening"]
         G = np.asarray(G)
         q, qd, qdd_ = (np.column_stack([state(d)[k] for d in dofs]) for k in range(3))
         acc[:, 2] -= np.einsum("ti,ij,tj->t", qd, G, qd) + np.einsum("ti,ij,tj->t", q, G, qdd_)
+        vel[:, 2] -= np.einsum("ti,ij,tj->t", qd, G, q)
 
     def angle(key, extra=()):
         parts = [(state(d), c) for d, c in tip[key].items()] + [(state(d), 1.0) for d in extra]
@@ -611,9 +638,15 @@ def tower_top_accelerations(built, integ, qdd) -> dict:
     R_n = Ry @ Rx @ Rz
     rho = R_n @ np.asarray(model.turbine.nacelle_imu, float)
     a_imu = acc + np.cross(alpha, rho) + np.cross(w, np.cross(w, rho))
+    v_imu = vel + np.cross(w, rho)
     shaft = R_n @ elementary_rotation(1, -model.turbine.shaft_tilt)
-    s_imu = np.einsum("ti,tij->tj", a_imu, shaft)
-    out.update({"NcIMUTAxs": s_imu[:, 0], "NcIMUTAys": s_imu[:, 1], "NcIMUTAzs": s_imu[:, 2]})
+    gravity = np.array([0.0, 0.0, -model.turbine.gravity])
+    # on the shaft frame's x, y (= -c3), z (= c2): translational (m/s, m/s^2; Ag: less
+    # gravity's, an accelerometer's) and rotational (deg/s, deg/s^2) motions of the IMU
+    for name, series, scale in (("TA", a_imu, 1.0), ("TAg", a_imu - gravity, 1.0), ("TV", v_imu, 1.0),
+                                ("RV", w, np.degrees(1.0)), ("RA", alpha, np.degrees(1.0))):
+        local = np.einsum("ti,tij->tj", series, shaft) * scale
+        out.update({f"NcIMU{name}{a}s": local[:, k] for k, a in enumerate("xyz")})
     return out
 
 
