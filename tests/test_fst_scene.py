@@ -250,11 +250,12 @@ def test_outlist_names_as_typed_with_sign_prefixes(tmp_path):
     "rotspeed" in lower case (checked against OpenFAST 5.0 by a sweep,
     ratio -1.0000). modesel dropped the "-" and wrote the channel unsigned,
     listed "_..." and "M..." as not computed, and ignored the case; a line
-    starting with "!" was read as a channel named "!"."""
+    starting with "!" was read as a channel named "!". AeroDyn's older names
+    (RtFldCp for RtAeroCp ...) are written as their outputs too."""
     fst = copy_case(tmp_path)
     ed = fst.parent / "steady_08_ElastoDyn.dat"
     text = ed.read_text()
-    extra = ['"-TwrBsMyt"', '"_TwrBsMxt"', '"MRootMyc1"', '"rotspeed"', "! a comment line"]
+    extra = ['"-TwrBsMyt"', '"_TwrBsMxt"', '"MRootMyc1"', '"rotspeed"', "! a comment line", '"RtFldCp"']
     ed.write_text(text.replace('"RotThrust"\n', '"RotThrust"\n' + "\n".join(extra) + "\n", 1))
     scene = load_scene(fst)
     assert "!" not in scene.out_list and "-TwrBsMyt" in scene.out_list
@@ -263,6 +264,8 @@ def test_outlist_names_as_typed_with_sign_prefixes(tmp_path):
     assert np.array_equal(out["_TwrBsMxt"], -out["TwrBsMxt"])
     assert np.array_equal(out["MRootMyc1"], -out["RootMyc1"])
     assert np.array_equal(out["rotspeed"], out["RotSpeed"])
+    # AeroDyn's older name of RtAeroCp (AeroDyn_IO_Params.f90), in an OutList of an older deck
+    assert np.array_equal(out["RtFldCp"], out["RtAeroCp"])
 
 
 @pytest.mark.parametrize("value, what", [("0.03", "whole multiple of DT"), ("0.003125", "at least DT")])
