@@ -256,8 +256,8 @@ def channel_unit(name: str) -> str | None:
     """Unit of a simulation output channel (OpenFAST's, also under an
     ElastoDyn alias), None if unknown."""
     unit = _unit(canonical_channel(name))
-    if unit is None and name[:1] in ("-", "_", "m", "M"):     # a negated OutList entry
-        unit = _unit(canonical_channel(name[1:]))
+    if unit is None:            # a negated OutList entry (`signed_channel`)
+        unit = _unit(canonical_channel(signed_channel(name)[1]))
     return unit
 
 
@@ -372,11 +372,7 @@ def shaft_power(data: dict, turbine) -> dict:
     GBoxEff 100 %)."""
     if "RotTorq" not in data:
         return {}
-    torque = data["RotTorq"]
-    out = {}
-    if "RotPwr" not in data:
-        out = {"LSShftTq": torque, "RotPwr": torque * data["RotSpeed"] * np.pi / 30.0,
-               "HSShftTq": torque / turbine.gearbox_ratio}
+    out = {} if "RotPwr" in data else _torque_channels(data["RotTorq"], data["RotSpeed"], turbine.gearbox_ratio)
     hss = out.get("HSShftTq", data.get("HSShftTq"))
     out["HSShftPwr"] = hss * data["GenSpeed"] * np.pi / 30.0
     return out
@@ -484,9 +480,14 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
     if dt is None or dt.options["model"] != "elastodyn":
         return {}
     q, qd = coord("DrTr")
-    torque = (dt.k_lss * q + dt.c_lss * qd) / 1e3
+    return _torque_channels((dt.k_lss * q + dt.c_lss * qd) / 1e3, rot_speed_rpm, built.model.turbine.gearbox_ratio)
+
+
+def _torque_channels(torque, rot_speed_rpm, gearbox_ratio) -> dict:
+    """RotTorq = LSShftTq [kN m], RotPwr [kW] = RotTorq * rotor speed, HSShftTq
+    [kN m] = RotTorq / GBRatio, of the low-speed shaft torque `torque` [kN m]."""
     return {"RotTorq": torque, "LSShftTq": torque, "RotPwr": torque * rot_speed_rpm * np.pi / 30.0,
-            "HSShftTq": torque / built.model.turbine.gearbox_ratio}
+            "HSShftTq": torque / gearbox_ratio}
 
 
 def yaw_moment(built, coord) -> dict:
