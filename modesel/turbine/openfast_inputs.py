@@ -122,10 +122,14 @@ class InputFile:
         semicolons or blanks) up to the line that starts with END, as typed
         (a sign prefix, OpenFAST's negated output, kept: `outputs.with_aliases`
         writes it); a line starting with '!' is a comment."""
-        if self.outlist_at is None:
-            return []
+        return [] if self.outlist_at is None else self._names_after(self.outlist_at)
+
+    def _names_after(self, header: int) -> list:
+        """The names of an OutList whose header is line `header`: quoted names
+        (several per line, separated by commas, semicolons or blanks), or a
+        line's first word, up to the line that starts with END; '!' lines skipped."""
         names = []
-        for line in self.lines[self.outlist_at + 1:]:
+        for line in self.lines[header + 1:]:
             if line.lstrip()[:3].upper() == "END":
                 break
             if line.lstrip().startswith("!"):
@@ -149,21 +153,9 @@ class InputFile:
             raise self.error(f"expected a number, got {self.lines[start].split()[0]!r}", "BldNd_BladesOut") from None
         if blades <= 0:
             return []
-        names = []
-        header = False
-        for line in self.lines[start + 1:]:
-            words = line.split()
-            if not header:
-                header = bool({"OutList", "OutList_Nodal"} & set(words[:2]))
-                continue
-            if line.lstrip()[:3].upper() == "END":
-                break
-            if line.lstrip().startswith("!"):
-                continue
-            quoted = re.findall(r'"([^"]*)"|\'([^\']*)\'', line)
-            parts = [a or b for a, b in quoted] if quoted else words[:1]
-            names += [n for part in parts for n in re.split(r"[,;\s]+", part) if n]
-        return names
+        header = next((i for i in range(start + 1, len(self.lines))
+                       if {"OutList", "OutList_Nodal"} & set(self.lines[i].split()[:2])), None)
+        return [] if header is None else self._names_after(header)
 
     def unsupported(self, label: str, what: str):
         """The one-line error for an option modesel does not model: `what`
