@@ -116,14 +116,17 @@ def scene_from_fst(path):
     dt_out = f.number("DT_Out", default=f.number("DT"))
     if dt_out <= 0:
         raise f.error(f"must be > 0, got {dt_out:g}", "DT_Out")
-    _check_output_step(f, dt_out)
+    dt = f.number("DT")
+    if dt <= 0:
+        raise f.error(f"must be > 0, got {dt:g}", "DT")
+    _check_output_step(f, dt, dt_out)
     t_start = f.number("TStart", default=0.0)
     if not 0.0 <= t_start <= tmax:
         raise f.error(f"must lie in [0, TMax = {tmax:g}] s, got {t_start:g}", "TStart")
     ed = InputFile(f.referenced("EDFile"), "ElastoDyn")
     _check_elastodyn(ed)
     scene = scene_from_elastodyn(path)
-    scene.tmax, scene.dt, scene.output_start = _end_time(f, tmax), dt_out, t_start
+    scene.tmax, scene.dt, scene.output_start = _end_time(tmax, dt), dt_out, t_start
     out_list = ed.outlist()
     decks_with_nodal_outputs = [ed]
     notes = list(scene.notes)
@@ -203,12 +206,9 @@ def _wind_points(f: InputFile) -> tuple:
     return tuple(zip(*lists))
 
 
-def _check_output_step(f: InputFile, dt_out: float):
+def _check_output_step(f: InputFile, dt: float, dt_out: float):
     """OpenFAST refuses (FAST_Subs) a DT_Out below DT or not a whole
     multiple of it; so does modesel, in one line naming DT_Out."""
-    dt = f.number("DT")
-    if dt <= 0:
-        raise f.error(f"must be > 0, got {dt:g}", "DT")
     steps = round(dt_out / dt)
     if steps < 1:
         raise f.error(f"must be at least DT = {dt:g} s, got {dt_out:g} s (as OpenFAST requires)", "DT_Out")
@@ -217,13 +217,10 @@ def _check_output_step(f: InputFile, dt_out: float):
                       "DT_Out")
 
 
-def _end_time(f: InputFile, tmax: float) -> float:
+def _end_time(tmax: float, dt: float) -> float:
     """The time OpenFAST's last step reaches [s]: it takes CEILING(TMax / DT)
     steps of DT (FAST_Subs n_TMax_m1), so a TMax that is not a whole number of
     steps ends after it (TMax 20.01 s, DT 0.00625 s: 20.0125 s)."""
-    dt = f.number("DT")
-    if dt <= 0:
-        raise f.error(f"must be > 0, got {dt:g}", "DT")
     steps = np.ceil(tmax / dt - 1e-9)
     return float(steps * dt) if abs(steps * dt - tmax) > 1e-9 * tmax else tmax
 
