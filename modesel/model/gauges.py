@@ -68,6 +68,7 @@ import re
 import numpy as np
 
 from modesel.multibody.kinematics import PointSet
+from modesel.multibody.rotations import small_rotation
 
 #: a blade gauge channel: gauge i, quantity (FL force, ML moment, TD deflection,
 #: RD rotation, AL acceleration, ALg with gravity), axis, blade b
@@ -119,17 +120,6 @@ def wanted_tips(model, wanted) -> list:
         return blades
     found = {int(m.group(3) or m.group(4)) for n in wanted if (m := TIP_CHANNEL.fullmatch(n))}
     return [b for b in blades if b in found]
-
-
-def small_rotation(t1, t2, t3=0.0) -> np.ndarray:
-    """ElastoDyn's SmllRotTrans (NWTC_Num.f90): the orthonormal matrix of
-    the small rotation (t1, t2, t3) [rad] about x1, x2, x3 (rows: the turned
-    axes in the old ones)."""
-    w = np.sqrt(1.0 - 0.25 * (t1 * t1 + t2 * t2 + t3 * t3))
-    return np.array([
-        [1.0 - 0.5 * (t2 * t2 + t3 * t3), 0.5 * t1 * t2 + t3 * w, 0.5 * t1 * t3 - t2 * w],
-        [0.5 * t1 * t2 - t3 * w, 1.0 - 0.5 * (t1 * t1 + t3 * t3), 0.5 * t2 * t3 + t1 * w],
-        [0.5 * t1 * t3 + t2 * w, 0.5 * t2 * t3 - t1 * w, 1.0 - 0.5 * (t1 * t1 + t2 * t2)]])
 
 
 class _States:
@@ -234,9 +224,15 @@ def _section_axes(R, twist, slope, qe):
     j1, j2, j3 = R[:, 0], R[:, 1], R[:, 2]
     c, s = np.cos(twist), np.sin(twist)
     lj = np.array([c * j1 - s * j2, s * j1 + c * j2, j3])
-    sx, sy = (slope @ qe)[:2] if len(qe) else (0.0, 0.0)
-    theta_ip, theta_oop = -sy, sx
+    theta_ip, theta_oop = _slope_angles(slope, qe)
     return small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj, theta_ip, theta_oop
+
+
+def _slope_angles(slope, qe) -> tuple:
+    """(ThetaIP, ThetaOoP) [rad] of a blade section: -slope_y and slope_x of the
+    elastic displacement, `slope` (3, ne) per coordinate, at coordinates qe."""
+    sx, sy = (slope @ qe)[:2] if len(qe) else (0.0, 0.0)
+    return -sy, sx
 
 
 class _Tips:
@@ -266,7 +262,7 @@ class _Tips:
         for b in self.blades:
             qe = st.q_all[self.idx[b]]
             axes, _, _ = _section_axes(st.R[self.index[b]], self.last[0], self.last[1][b], qe)
-            _, theta_ip, theta_oop = _section_axes(st.R[self.index[b]], 0.0, self.tip_slope[b], qe)
+            theta_ip, theta_oop = _slope_angles(self.tip_slope[b], qe)
             acc = st.acc[f"tip{b}"][0]
             for a, v, vg in zip("xyz", axes @ acc, axes @ (acc - self.gravity)):
                 out[f"TipAL{a}b{b}"], out[f"TipALg{a}b{b}"] = v, vg

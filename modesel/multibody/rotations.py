@@ -1,7 +1,8 @@
 """Vector algebra of body frames: elementary rotations, cross products and
-the skew-symmetric matrix of a vector (the one home of each, for the numpy
-reference of the Kane equations, the shape integrals, the turbine template
-and the symbolic layer).
+the skew-symmetric matrix of a vector, ElastoDyn's small-rotation matrix
+(the one home of each, for the numpy reference of the Kane equations, the
+shape integrals, the turbine template, the output channels and the symbolic
+layer).
 
     [v~] w = v x w,    [v~] = [[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]
 
@@ -49,3 +50,14 @@ def elementary_rotation(axis: int, angle) -> np.ndarray:
     if axis == 1:
         return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def small_rotation(t1, t2, t3=0.0) -> np.ndarray:
+    """ElastoDyn's SmllRotTrans (NWTC_Num.f90): the orthonormal matrix of
+    the small rotation (t1, t2, t3) [rad] about x1, x2, x3 (rows: the turned
+    axes in the old ones)."""
+    w = np.sqrt(1.0 - 0.25 * (t1 * t1 + t2 * t2 + t3 * t3))
+    return np.array([
+        [1.0 - 0.5 * (t2 * t2 + t3 * t3), 0.5 * t1 * t2 + t3 * w, 0.5 * t1 * t3 - t2 * w],
+        [0.5 * t1 * t2 - t3 * w, 1.0 - 0.5 * (t1 * t1 + t3 * t3), 0.5 * t2 * t3 + t1 * w],
+        [0.5 * t1 * t3 + t2 * w, 0.5 * t2 * t3 - t1 * w, 1.0 - 0.5 * (t1 * t1 + t2 * t2)]])
