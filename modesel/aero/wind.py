@@ -155,7 +155,7 @@ class Wind:
 
 def horizontal_speed(z, lateral, vh, shr_h, shr_v, lin_v, gust, zr, lr):
     """V1 [m/s] of the module doc (numpy, broadcast): heights z [m] above
-    ground (z <= 0 gives a finite placeholder; callers zero it), `lateral` =
+    ground (z <= GROUND gives a finite placeholder; callers zero it), `lateral` =
     y cos AngleH + x sin AngleH [m], the table's VelH, ShrH, ShrV, LinShrV,
     VelGust, RefHt zr [m] and RefLength lr [m]."""
     ratio = np.where(z > GROUND, z, zr) / zr

@@ -9,8 +9,8 @@ What the case's modules become:
   effect; still air (CompInflow = 0) -> zero wind when AeroDyn is on.
 - AeroDyn 15 (CompAero = 2, `turbine.aerodyn.aerodyn_case_options`) -> the `aero`
   effect (BEM, the deck's blade and polars, Pitt/Peters skew per the deck)
-  and, with TwrAero, `tower_drag`; AirDens "default" takes the .fst AirDens
-  (for both).
+  and, with TwrAero, `tower_drag` (on the aero effect's deck and air
+  density); AirDens "default" takes the .fst AirDens.
 - ServoDyn (CompServo = 1, `turbine.servodyn.read_servodyn`) -> the `generator`
   effect (ServoDyn's simple variable-speed law or induction generator,
   GenEff, on/off switching) and the pitch held at PitNeut; without
@@ -161,11 +161,8 @@ def scene_from_fst(path):
         if ad["air_density_default"] and "AirDens" in f:
             aero["air_density"] = f.number("AirDens")
         effects["aero"] = aero
-        effects["tower_drag"] = False
-        if ad["tower_drag"]:
-            effects["tower_drag"] = {"aerodyn": aero["aerodyn"]}
-            if "air_density" in aero:
-                effects["tower_drag"]["air_density"] = aero["air_density"]
+        # the tower drag takes the aero effect's deck and air density (effects/tower_drag.py)
+        effects["tower_drag"] = bool(ad["tower_drag"])
         if f.integer("CompInflow") != 1:
             effects["wind"] = {"speed": 0.0}
     if f.integer("CompInflow") == 1:      # the wind, also without AeroDyn: its output points (Wind<k>Vel*)

@@ -17,9 +17,9 @@ table's elevations on the tower, cut at the tower's base and top where the
 table reaches beyond them; as in OpenFAST, whose mapping of AeroDyn's tower
 line mesh onto ElastoDyn's loads only the span the two share, a node below
 the table's lowest or above its highest elevation takes no drag. Diameter
-and Cd are the table's at the stations. Air density: the `air_density`
-option (an OpenFAST case's AirDens, as for the rotor), else the aero
-effect's, else the deck's. No tower shadow on the blades. Needs [effects.wind].
+and Cd are the table's at the stations. Air density: the aero effect's
+(an OpenFAST case's AirDens, as for the rotor) where the drag takes its
+deck, else the deck's. No tower shadow on the blades. Needs [effects.wind].
 
 The node loads are T g of the station loads g (T the transfer, N x P), so
 the compiled loop may take them at one load point per station
@@ -42,9 +42,7 @@ from modesel.multibody.kinematics import PointSet
 class TowerDragLoads(Effect):
     name = "tower_drag"
     loads = True
-    OPTIONS = {"aerodyn": Option("path", None, "AeroDyn main file (tower table)"),
-               "air_density": Option("number", None, "air density [kg/m^3] (default: the aero effect's, "
-                                     "else the AeroDyn deck's)", positive=True)}
+    OPTIONS = {"aerodyn": Option("path", None, "AeroDyn main file (tower table)")}
 
     def setup(self, built):
         self.wind = wind_of(self, built)
@@ -56,12 +54,8 @@ class TowerDragLoads(Effect):
         if deck.tower is None:
             raise self.error("the AeroDyn deck has no tower table (TwrElev, TwrDiam, TwrCd)", "aerodyn")
         self.drag = deck.tower
-        if self.options["air_density"] is not None:
-            self.rho = float(self.options["air_density"])
-        elif aero is not None and self.options["aerodyn"] is None:
-            self.rho = aero.bem.solver.air_density
-        else:
-            self.rho = deck.air_density
+        self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
+                    else deck.air_density)
         self.nodes = PointSet.of_body(built.eq, "tower")
         self.elevation, local = self._stations(built)
         s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
