@@ -251,14 +251,12 @@ class _Tips:
         self.last = (np.interp(last, blade.span - blade.span[0], blade.twist),
                      {b: model.station_slopes(f"blade{b}", np.array([last]))[0] for b in blades})
         self.tip_slope = {b: model.station_slopes(f"blade{b}", np.array([blade.length]))[0] for b in blades}
-        self.nacelle = eq.body_index["nacelle"]
-        self.top = eq.body_index["yaw_bearing"] if any(x.name == "yaw_bearing" for x in eq.system.bodies) \
-            else None
+        self.nacelle = eq.body_index["nacelle"]      # its origin is the tower top (ElastoDyn's point O)
 
     def __call__(self, st, k):
         out = {}
         R_n = st.R[self.nacelle]
-        r_top = st.origin[self.top] if self.top is not None else self._tower_top(st)
+        r_top = st.origin[self.nacelle]
         for b in self.blades:
             qe = st.q_all[self.idx[b]]
             axes, _, _ = _section_axes(st.R[self.index[b]], self.last[0], self.last[1][b], qe)
@@ -270,10 +268,6 @@ class _Tips:
             x, y, z = R_n.T @ (st.pos[f"tip{b}"][0] - r_top)
             out[f"TipClrnc{b}"] = np.sqrt(x * x + y * y + z * z) if z > 0.0 else np.hypot(x, y)
         return out
-
-    def _tower_top(self, st):
-        """The nacelle's origin: the tower top, where the yaw bearing is no body of its own."""
-        return st.origin[self.nacelle]
 
 
 class _BladeGauges:
