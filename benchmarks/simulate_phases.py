@@ -4,7 +4,7 @@ process (numba's cache warm): imports, loading the scene, each step of
 channels) and writing the CSV as the command does (with Python's garbage
 collector paused until the scene is read, as the command does).
 
-Run: python3 benchmarks/simulate_phases.py [--tmax 20] [SCENE]
+Run: python3 benchmarks/simulate_phases.py [--tmax 20] [--all-channels] [SCENE]
      (default SCENE: the OpenFAST case steady_08 with BEM)
 
 The steps are timed by wrapping the functions `simulation.transient` calls;
@@ -49,6 +49,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scene", nargs="?", default=str(REPO / "studies/data/openfast/steady_08/steady_08.fst"))
     p.add_argument("--tmax", type=float, default=20.0, help="simulated time [s]")
+    p.add_argument("--all-channels", action="store_true", help="every channel, as `modesel simulate --all-channels`")
     a = p.parse_args()
     for name in STEPS:
         setattr(transient, name, timed(name))
@@ -57,10 +58,14 @@ def main() -> None:
     gc.freeze()
     gc.enable()
     t3 = time.perf_counter()
-    result = simulate(scene, tmax=a.tmax)
+    # as the command: an OpenFAST case's OutList channels only, unless --all-channels
+    outlist = list(dict.fromkeys(scene.out_list)) if scene.out_list and not a.all_channels else None
+    result = simulate(scene, tmax=a.tmax, channels=outlist)
     t4 = time.perf_counter()
     units = dict(result.units, Time="s")
-    columns_csv_text(result.columns, {c: units.get(c, "?") for c in result.columns})
+    columns = result.columns if outlist is None else \
+        {c: result.columns[c] for c in ["Time", *outlist] if c in result.columns}
+    columns_csv_text(columns, {c: units.get(c, "?") for c in columns})
     t5 = time.perf_counter()
     print(f"{Path(a.scene).name}, {a.tmax:g} s simulated ({result.n_dofs} DOFs, {result.method}, "
           f"{result.n_rhs} right-hand sides)")

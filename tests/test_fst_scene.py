@@ -354,6 +354,38 @@ def test_cli_outputs_from_tstart_and_names_channels_it_does_not_compute(tmp_path
     assert any("note:" in line and "PitNeut" in line for line in run.stdout.splitlines())
 
 
+def test_cli_writes_the_outlist_as_openfast_and_every_channel_on_request(tmp_path):
+    """For an OpenFAST case `modesel simulate` writes, as OpenFAST does, Time
+    and the channels its OutLists name, in their order and as typed (here a
+    lower-case name, a negated one and another ElastoDyn name added to
+    steady_08's); `--all-channels` writes every channel modesel computes,
+    with the same values."""
+    import pandas as pd
+    fst = copy_case(tmp_path)
+    ed = fst.parent / "steady_08_ElastoDyn.dat"
+    lines = ed.read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line.split()[:1] == ["OutList"]) + 1
+    ed.write_text("\n".join(lines[:first] + ['"rotspeed, -TwrBsMyt"', '"LSSTipVxa"'] + lines[first:]) + "\n")
+    outlist = load_scene(fst).out_list
+    paths = {}
+    for key, extra in (("outlist", []), ("all", ["--all-channels"])):
+        paths[key] = tmp_path / f"{key}.csv"
+        run = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(fst), "--tmax", "0.2", "--out",
+                              str(paths[key]), *extra], capture_output=True, text=True, cwd=ROOT,
+                             env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert run.returncode == 0, run.stderr
+    mine = pd.read_csv(paths["outlist"], header=[0, 1]).droplevel(1, axis=1)
+    every = pd.read_csv(paths["all"], header=[0, 1]).droplevel(1, axis=1)
+    assert list(mine.columns) == ["Time", *dict.fromkeys(outlist)] and outlist[:3] == ("rotspeed", "-TwrBsMyt",
+                                                                                       "LSSTipVxa")
+    assert len(every.columns) > len(mine.columns) + 50 and "TipALxb1" in every and "TipALxb1" not in mine
+    np.testing.assert_allclose(mine.rotspeed, every.RotSpeed, rtol=1e-12)
+    np.testing.assert_allclose(mine.LSSTipVxa, every.RotSpeed, rtol=1e-12)
+    np.testing.assert_allclose(mine["-TwrBsMyt"], -every.TwrBsMyt, rtol=1e-12)
+    for c in mine.columns[4:]:
+        np.testing.assert_allclose(mine[c], every[c], rtol=1e-12, atol=1e-12, err_msg=c)
+
+
 def test_tmax_between_steps_ends_where_openfast_ends(tmp_path):
     """OpenFAST takes CEILING(TMax / DT) steps: TMax 0.51 s with DT 0.00625 s
     ends at 0.5125 s, its last output with DT_Out "default"."""

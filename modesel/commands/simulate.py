@@ -3,7 +3,11 @@
 SCENE is a TOML scene or an ElastoDyn/OpenFAST main file. The CSV has a
 `Time` column and OpenFAST-named channels, with a second header row of units
 as OpenFAST text outputs (`Time,TTDspFA` then `(s),(m)`; read it with
-`pandas.read_csv(OUT, header=[0, 1])`). The command says which DOFs and
+`pandas.read_csv(OUT, header=[0, 1])`). For an OpenFAST case the CSV holds,
+as OpenFAST's output does, the channels its OutLists name, in their order
+and as typed (only those are computed: the strain gauges, tip accelerations
+and the like cost an evaluation of the loads per output time);
+`--all-channels` writes every channel modesel computes. The command says which DOFs and
 effects ran and warns about settings that act on nothing (e.g. a wind with
 neither aero nor tower drag on). A run longer than 2 s shows a progress line
 on stderr (simulated time, x real time, ETA) when stderr is a terminal.
@@ -23,6 +27,8 @@ def register(sub):
     p.add_argument("--tmax", type=positive_float, help="simulated time [s] (default: the scene's)")
     p.add_argument("--dt", type=positive_float, help="output step [s] (default: the scene's)")
     p.add_argument("--out", required=True, help="output CSV file (second header row: units)")
+    p.add_argument("--all-channels", action="store_true",
+                   help="for an OpenFAST case: every channel modesel computes, not only those its OutLists name")
     p.add_argument("--no-stability-check", action="store_true",
                    help="simulate a statically unstable configuration instead of refusing it (as the scene's "
                         "[solver] stability_check = false; for .fst and ElastoDyn files)")
@@ -43,14 +49,19 @@ def _run(args, started) -> int:
     if args.no_stability_check:
         scene.solver = dict(scene.solver, stability_check=False)
     started()
+    # an OpenFAST case's OutLists, each name once (None: every channel modesel computes)
+    outlist = list(dict.fromkeys(scene.out_list)) if scene.out_list and not args.all_channels else None
     line = SimulationProgress(f"{scene.name}: ")
     try:
         with CompileProgress():
-            result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line)
+            result = simulate(scene, load_modeset(args.modeset), tmax=args.tmax, dt=args.dt, progress=line,
+                              channels=outlist)
     finally:
         line.close()
     units = dict(result.units, Time="s")
-    atomic_write_text(args.out, columns_csv_text(result.columns, {c: units.get(c, "?") for c in result.columns}))
+    columns = result.columns if outlist is None else \
+        {c: result.columns[c] for c in ["Time", *outlist] if c in result.columns}
+    atomic_write_text(args.out, columns_csv_text(columns, {c: units.get(c, "?") for c in columns}))
     on, flags, warnings = effects_in_scene(scene, result.dof_names)
     print(f"{scene.name}: {result.n_dofs} DOFs ({', '.join(result.dof_names)})")
     print(f"  effects evaluated: {', '.join(on) or 'none'}; system flags on: {', '.join(flags) or 'none'}")

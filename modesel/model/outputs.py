@@ -61,7 +61,7 @@ from modesel.model.effects.base import Effect
 from modesel.model.gauges import (GAUGE_CHANNEL, GAUGE_UNITS, TIP_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS,
                                   gauge_loads, wanted_gauges, wanted_tips, wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
-from modesel.vocabulary import dof_unit, parse_dof
+from modesel.vocabulary import RIGID_DOFS, dof_unit, parse_dof
 
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
 #: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
@@ -205,8 +205,58 @@ def switched_off_dofs(requested, columns: dict, coordinates) -> dict:
 
 
 def canonical_channel(name: str) -> str:
-    """modesel's name of channel `name` (itself, or the channel an ElastoDyn alias names)."""
-    return _ALIAS_OF.get(name.upper(), name)
+    """modesel's name of channel `name`: the channel an ElastoDyn alias
+    names, or the channel itself as modesel spells it (ElastoDyn reads its
+    OutList without case: 'rotspeed' is RotSpeed); a name modesel does not
+    know comes back as given."""
+    key = name.upper()
+    found = _ALIAS_OF.get(key) or _SPELLING.get(key)
+    if found is not None:
+        return found
+    for pattern, spell in _SPELLED_PATTERNS:
+        if m := pattern.fullmatch(name):
+            return spell(m)
+    return name
+
+
+def _spelled_dof(name: str) -> str:
+    """A coordinate's name as the vocabulary spells it (`parse_dof`), from any letter case."""
+    if m := re.fullmatch(r"B([1-9]\d*)([FE])([1-9]\d*)", name, re.IGNORECASE):
+        return f"B{m.group(1)}{m.group(2).upper()}{m.group(3)}"
+    if m := re.fullmatch(r"(TFA|TSS|TTor)([1-9]\d*)", name, re.IGNORECASE):
+        return f"{ {'TFA': 'TFA', 'TSS': 'TSS', 'TTOR': 'TTor'}[m.group(1).upper()]}{m.group(2)}"
+    return {d.upper(): d for d in RIGID_DOFS}.get(name.upper(), name)
+
+
+#: channels by their upper-case names: CHANNEL_UNITS' with blades 1-9
+_SPELLING = {n.replace("<b>", b).upper(): n.replace("<b>", b)
+             for n in CHANNEL_UNITS for b in ("123456789" if "<b>" in n else "-")}
+_QUANTITY = {q.upper(): q for q in GAUGE_UNITS}
+#: the channel families modesel writes under any number, spelled from any letter case
+_SPELLED_PATTERNS = (
+    (re.compile(GAUGE_CHANNEL.pattern, re.IGNORECASE),
+     lambda m: f"Spn{m.group(1)}{_QUANTITY[m.group(2).upper()]}{m.group(3).lower()}b{m.group(4)}"),
+    (re.compile(TOWER_GAUGE_CHANNEL.pattern, re.IGNORECASE),
+     lambda m: f"TwHt{m.group(1)}{_QUANTITY[m.group(2).upper()]}{m.group(3).lower()}t"),
+    (re.compile(TIP_CHANNEL.pattern, re.IGNORECASE),
+     lambda m: f"TipClrnc{m.group(4)}" if m.group(4) else
+     f"Tip{_QUANTITY[m.group(1).upper()]}{m.group(2).lower()}b{m.group(3)}"),
+    (re.compile(r"Wind([1-9])Vel([XYZ])", re.IGNORECASE), lambda m: f"Wind{m.group(1)}Vel{m.group(2).upper()}"),
+    (re.compile(r"(QD?)_(\w+)", re.IGNORECASE), lambda m: f"{m.group(1).upper()}_{_spelled_dof(m.group(2))}"),
+)
+
+
+def requested_channels(names) -> set:
+    """The channel names (modesel's) that computing `names` (an OpenFAST
+    case's OutList, a search's channels) needs: each as given, as modesel
+    spells it (`canonical_channel`), and without a sign prefix
+    (`signed_channel`; both readings of a leading 'm', whose meaning depends
+    on what is computed)."""
+    out = set()
+    for name in names:
+        for n in (name, signed_channel(name)[1]):
+            out |= {n, canonical_channel(n)}
+    return out
 
 
 def output_columns(columns) -> dict:

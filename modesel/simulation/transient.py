@@ -8,7 +8,7 @@ import numpy as np
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
-from modesel.model.outputs import (canonical_channel, channel_unit, channels, needs_reaction_forces,
+from modesel.model.outputs import (channel_unit, channels, needs_reaction_forces, requested_channels,
                                    switched_off_dofs, wind_channels, with_aliases)
 from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
@@ -56,7 +56,9 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     (`integrate.default_tolerances`).
     progress: optional progress(t, tmax) hook of the integrator.
     channels: None (every output channel), or the names needed (a search's
-    compared channels): effect channels and reaction loads not named are
+    compared channels, an OpenFAST case's OutList: any letter case, sign
+    prefixes, ElastoDyn's other names; `outputs.requested_channels`):
+    effect channels, reaction loads, gauges and tip motions not named are
     left out (`outputs.channels`; about one right-hand side per output time).
     Runs with one BLAS thread (`integrate.single_thread_blas`)."""
     with single_thread_blas():
@@ -73,6 +75,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     if scene.output_start > tmax:
         raise ModeselError(f"the outputs start at {scene.output_start:g} s, after tmax = {tmax:g} s: no output "
                            f"row", file=scene.path, field="TStart")
+    asked = list(wanted or ())
+    wanted = None if wanted is None else requested_channels(asked)
     t0 = time.perf_counter()
     built = build(scene, modeset, reactions=True, reaction_forces=needs_reaction_forces(wanted))
     first_run.compile_in_parallel(built)    # first run with compiled loads: loads and kernel at once
@@ -109,7 +113,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         reason = re.sub(r"coordinate (\d+) ", lambda m: f"coordinate {_name(names, m.group(1))} ", exc.reason)
         raise SimulationDiverged(reason, exc.time, file=scene.path) from None
     wall = time.perf_counter() - t0
-    columns = channels(built, integ, None if wanted is None else set(wanted) | {canonical_channel(c) for c in wanted})
+    columns = channels(built, integ, wanted)
     start = scene.output_start
     if start > 0.0:     # an OpenFAST case's TStart: simulated from 0, output from TStart on
         keep = columns["Time"] >= start - 1e-9 * dt
@@ -118,8 +122,8 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
         columns.update(wind_channels(built, columns["Time"], scene.wind_points, wanted))
     if scene.out_list and modeset is None:      # the case's own DOFs: those it switches off
         columns.update(switched_off_dofs(scene.out_list, columns, built.eq.index))
-    if scene.out_list or wanted:    # an OpenFAST case's OutList, a search's channels: ElastoDyn's other names
-        columns = with_aliases(columns, list(scene.out_list) + list(wanted or ()))
+    if scene.out_list or asked:     # an OpenFAST case's OutList, a search's channels: ElastoDyn's other names
+        columns = with_aliases(columns, list(scene.out_list) + asked)
     units = {c: u for c in columns if (u := channel_unit(c)) is not None}
     return SimulationResult(columns, n, wall, float(integ.t[-1]), names, integ.method, ratio, integ.n_rhs, units)
 
