@@ -500,3 +500,25 @@ def test_elementary_rotation_of_an_array_stacks_the_matrices():
         stacked = elementary_rotation(axis, angles)
         assert stacked.shape == (4, 3, 3)
         assert np.allclose(stacked, expected, rtol=0, atol=1e-15), axis
+
+
+def test_frames_along_a_history_equal_the_reference_kinematics():
+    """`FrameKinematics.along` (the outputs' pass: the frames at every output
+    time in one compiled call, `kernel.kinematics_along`) gives at each state
+    the frames of the numpy reference (`KaneEquations.kinematics`: R, r, v,
+    w) and of the one-state call, on the chain exercising every joint feature."""
+    from modesel.multibody.kinematics import FrameKinematics
+    eq = KaneEquations(pendulum_chain())
+    states = list(random_states(eq, np.random.default_rng(3)))
+    Q, QD = np.array([q for q, _ in states]), np.array([qd for _, qd in states])
+    frames = FrameKinematics(eq)
+    R, vec = frames.along(Q, QD)
+    assert R.shape[0] == vec.shape[0] == len(states) >= 3
+    for k, (q, qd) in enumerate(states):
+        R1, vec1 = frames(q, qd)
+        np.testing.assert_array_equal(R[k], R1)
+        np.testing.assert_array_equal(vec[k], vec1)
+        for b, ref in enumerate(eq.kinematics(q, qd)):
+            assert_equal_rel(R[k, b], ref.R, "R")
+            for i, x in enumerate((ref.r, ref.v, ref.w)):
+                assert_equal_rel(vec[k, b, i], x, ("r", "v", "w")[i])

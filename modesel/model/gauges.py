@@ -68,7 +68,7 @@ import re
 import numpy as np
 
 from modesel.multibody.kinematics import PointSet
-from modesel.multibody.rotations import small_rotation
+from modesel.multibody.rotations import cross, small_rotation
 
 #: a blade gauge channel: gauge i, quantity (FL force, ML moment, TD deflection,
 #: RD rotation, AL acceleration, ALg with gravity), axis, blade b
@@ -127,33 +127,41 @@ class _States:
     positions and the bodies' frames at the state, and the points' and
     bodies' origins' accelerations by the central difference (module doc),
     for the point sets `sets` {key: PointSet}; one evaluation of the effects
-    and three of the kinematics per time, shared by the blade and tower gauges."""
+    per time, shared by the blade and tower gauges and the tips. The frames
+    at every output time's state and its two neighbours along the motion
+    come first, in three compiled calls (`FrameCache.along`)."""
 
     def __init__(self, built, integ, accelerations, sets):
         self.built, self.integ, self.sets = built, integ, sets
+        eq = built.eq
         free = list(built.model.system.free)
-        self.qdd_free = (np.column_stack([accelerations[n] for n in free]) if free
-                         else np.zeros((len(integ.t), 0)))
+        n = len(integ.t)
+        full = [eq.full_state(integ.q[k], integ.qd[k], integ.t[k]) for k in range(n)]
+        self.Q = np.array([f[0] for f in full]).reshape(n, eq.n_all)
+        self.QD = np.array([f[1] for f in full]).reshape(n, eq.n_all)
+        QDD = np.array([f[2] for f in full]).reshape(n, eq.n_all)
+        if free:
+            QDD[:, eq.free_idx] = np.column_stack([accelerations[c] for c in free])
+        cache = built.frame_cache
+        self.frames = cache.along(self.Q, self.QD)
+        self.moved = {sign: (self.Q + sign * STEP * self.QD, self.QD + sign * STEP * QDD) for sign in (1.0, -1.0)}
+        self.moved_frames = {sign: cache.along(*state) for sign, state in self.moved.items()}
 
     def at(self, k):
-        built, eq = self.built, self.built.eq
+        built = self.built
         t = self.integ.t[k]
-        q_all, qd_all, qdd_presc = eq.full_state(self.integ.q[k], self.integ.qd[k], t)
-        qdd_all = qdd_presc.copy()
-        qdd_all[eq.free_idx] = self.qdd_free[k]
-        # the effects' loads and the positions and frames first: the frames are
-        # computed into buffers that the perturbed states below overwrite
+        q_all, qd_all = self.Q[k], self.QD[k]
+        frames = (self.frames[0][k], self.frames[1][k])
+        built.frame_cache.hold(q_all, qd_all, frames)       # the effects' frames at this state
         _, applied = built.loads(t, q_all, qd_all)
         self.q_all, self.applied = q_all, {n: np.array(v) for n, v in applied.items()}
-        frames = built.frames(q_all, qd_all)
-        self.pos = {n: ps.kinematics(frames, q_all, qd_all)[0].copy() for n, ps in self.sets.items()}
-        self.R, self.origin = frames[0].copy(), frames[1][:, 0].copy()
+        self.pos = {n: ps.kinematics(frames, q_all, qd_all)[0] for n, ps in self.sets.items()}
+        self.R, self.origin = frames[0], frames[1][:, 0]
         v, w = {}, {}
-        for sign in (1.0, -1.0):
-            state = (q_all + sign * STEP * qd_all, qd_all + sign * STEP * qdd_all)
-            frames = built.frames(*state)
-            v[sign] = {n: ps.kinematics(frames, *state)[1].copy() for n, ps in self.sets.items()}
-            w[sign] = frames[1][:, 1].copy()
+        for sign, (Q, QD) in self.moved.items():
+            moved = (self.moved_frames[sign][0][k], self.moved_frames[sign][1][k])
+            v[sign] = {n: ps.kinematics(moved, Q[k], QD[k])[1] for n, ps in self.sets.items()}
+            w[sign] = moved[1][:, 1]
         self.acc = {n: (v[1.0][n] - v[-1.0][n]) / (2.0 * STEP) for n in self.sets}
         self.origin_acc = (w[1.0] - w[-1.0]) / (2.0 * STEP)
         return self
@@ -193,8 +201,8 @@ def _section(load, pos, g, outer, arm, axes, force0=None, moment0=None):
     element's arm `arm`, a vector), started from force0 and moment0; and
     their components on `axes` (3, 3), in kN and kN m."""
     force = load[outer, :3].sum(axis=0) + 0.5 * load[g, :3]
-    moment = (np.cross(pos[outer] - pos[g], load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
-              + np.cross(arm, 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
+    moment = (cross(pos[outer] - pos[g], load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
+              + cross(arm, 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
     if force0 is not None:
         force, moment = force + force0, moment + moment0
     return axes @ force / 1e3, axes @ moment / 1e3
@@ -383,7 +391,7 @@ class _TowerGauges:
             t1, t2, t3 = small_rotation(theta_ss, 0.0, theta_fa) @ self.base
             axes = np.array([t1, -t3, t2])            # x, y, z: FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
             f, m = _section(load, pos, g, np.arange(g + 1, n), 0.25 * self.dh * self.base[1], axes,
-                            f_top, np.cross(r_top - pos[g], f_top) + m_top)
+                            f_top, cross(r_top - pos[g], f_top) + m_top)
             # motions (ElastoDyn's rTPT on a1, -a3, a2; AngPosXF: ThetaSS, -ThetaFA; LinAccET on t)
             moved = pos[g] - st.origin[self.root] - self.height[g] * self.base[1]
             acc = st.acc["tower"][g]

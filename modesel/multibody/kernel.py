@@ -278,6 +278,17 @@ def kinematics(q, qd, data, work):
 
 # ------------------------------------------------------------- body contributions
 @njit(cache=True)
+def kinematics_along(Q, QD, data, work, R_out, vec_out):
+    """`kinematics` at each state (rows of Q, QD: a history): the frames
+    R_out[k], vec_out[k] of state k, in one call (the outputs' pass over the
+    output times, `FrameKinematics.along`)."""
+    for k in range(Q.shape[0]):
+        kinematics(Q[k], QD[k], data, work)
+        R_out[k] = work[0]
+        vec_out[k] = work[1]
+
+
+@njit(cache=True)
 def _rotate_tensor(R, body_frame, out):
     """out = R T R^T for the 3x3 tensor T stored row by row in `body_frame`
     (9 floats): a body-frame inertia expressed in the ground frame."""

@@ -78,6 +78,17 @@ class FrameKinematics:
         kernel.kinematics(np.asarray(q_all, float), np.asarray(qd_all, float), p.data, p.work)
         return p.work[0], p.work[1]
 
+    def along(self, Q, QD):
+        """The frames at each state (rows of Q, QD (n, n_all)) in one compiled
+        call: (R (n, n_bodies+1, 3, 3), vec (n, n_bodies+1, 5, 3)), row k as
+        `__call__` gives it for state k (not a buffer: kept)."""
+        p = self.packed
+        Q, QD = np.ascontiguousarray(Q, float), np.ascontiguousarray(QD, float)
+        R = np.empty((len(Q),) + p.work[0].shape)
+        vec = np.empty((len(Q),) + p.work[1].shape)
+        kernel.kinematics_along(Q, QD, p.data, p.work, R, vec)
+        return R, vec
+
 
 @dataclass
 class PointSet:

@@ -52,14 +52,28 @@ class FrameCache:
         self.result = None
 
     def __call__(self, q_all, qd_all):
+        held_q, held_qd = self.state
+        if q_all is not held_q or qd_all is not held_qd:
+            self.result = self._kinematics()(q_all, qd_all)
+            self.state = (q_all, qd_all)
+        return self.result
+
+    def along(self, Q, QD):
+        """The frames at many states (rows of Q, QD) in one compiled call
+        (`FrameKinematics.along`); the cache is left as it is."""
+        return self._kinematics().along(Q, QD)
+
+    def hold(self, q_all, qd_all, frames):
+        """Take `frames` (R, vec) as the frames at (q_all, qd_all), computed
+        beforehand (`along`): the effects evaluated next at that state share
+        them."""
+        self.state, self.result = (q_all, qd_all), frames
+
+    def _kinematics(self):
         if self.kinematics is None:
             from modesel.multibody.kinematics import FrameKinematics
             self.kinematics = FrameKinematics(self.eq)
-        held_q, held_qd = self.state
-        if q_all is not held_q or qd_all is not held_qd:
-            self.result = self.kinematics(q_all, qd_all)
-            self.state = (q_all, qd_all)
-        return self.result
+        return self.kinematics
 
 
 @dataclass(frozen=True, eq=False)

@@ -103,6 +103,7 @@ from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
 from modesel.aero.wind import wind_velocity
 from modesel.multibody.kinematics import PointSet
+from modesel.multibody.rotations import cross
 
 #: |V_dot_x| [m/s] under which RtAeroCp is 0 (AeroDyn_IO.f90: its denominator
 #: holds V_dot_x cubed)
@@ -264,14 +265,14 @@ class BladeAerodynamics(Effect):
         fn, ft = self.bem.buffers.f_n[b], self.bem.buffers.f_t[b]
         line = fn[:, None] * self.en[b] + ft[:, None] * self.et[b]                   # [N/m]
         pitching = (self.cm_scale * self.bem.buffers.out[11].reshape(self.r.shape)[b])[:, None] \
-            * np.cross(self.et[b], self.en[b])                                         # [N m/m]
+            * cross(self.et[b], self.en[b])                                         # [N m/m]
         f, r = interp @ line, interp @ self.pos[b]
         force, moment = lumping @ line, lumping @ pitching          # lumping = L I (`_line2_lumping`)
-        end = (h / 12.0)[:, None] * np.cross(r[1:] - r[:-1], f[1:] + f[:-1])
+        end = (h / 12.0)[:, None] * cross(r[1:] - r[:-1], f[1:] + f[:-1])
         moment[:-1] += end
         moment[1:] -= end
         out = np.zeros((len(node_pos), 6))
-        np.add.at(out, near, np.hstack([force, moment + np.cross(r - node_pos[near], force)]))
+        np.add.at(out, near, np.hstack([force, moment + cross(r - node_pos[near], force)]))
         return out
 
     def load_points(self, built):
