@@ -24,6 +24,7 @@ from pathlib import Path  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from modesel.commands.simulate import written_channels, written_columns  # noqa: E402
 from modesel.files import columns_csv_text  # noqa: E402
 from modesel.simulation import transient  # noqa: E402
 from modesel.simulation.api import load_scene, simulate  # noqa: E402
@@ -58,13 +59,11 @@ def main() -> None:
     gc.freeze()
     gc.enable()
     t3 = time.perf_counter()
-    # as the command: an OpenFAST case's OutList channels only, unless --all-channels
-    outlist = list(dict.fromkeys(scene.out_list)) if scene.out_list and not a.all_channels else None
+    outlist = written_channels(scene, a.all_channels)       # as the command
     result = simulate(scene, tmax=a.tmax, channels=outlist)
     t4 = time.perf_counter()
     units = dict(result.units, Time="s")
-    columns = result.columns if outlist is None else \
-        {c: result.columns[c] for c in ["Time", *outlist] if c in result.columns}
+    columns = written_columns(result, outlist)
     columns_csv_text(columns, {c: units.get(c, "?") for c in columns})
     t5 = time.perf_counter()
     print(f"{Path(a.scene).name}, {a.tmax:g} s simulated ({result.n_dofs} DOFs, {result.method}, "

@@ -49,8 +49,7 @@ def _run(args, started) -> int:
     if args.no_stability_check:
         scene.solver = dict(scene.solver, stability_check=False)
     started()
-    # an OpenFAST case's OutLists, each name once (None: every channel modesel computes)
-    outlist = list(dict.fromkeys(scene.out_list)) if scene.out_list and not args.all_channels else None
+    outlist = written_channels(scene, args.all_channels)
     line = SimulationProgress(f"{scene.name}: ")
     try:
         with CompileProgress():
@@ -59,8 +58,7 @@ def _run(args, started) -> int:
     finally:
         line.close()
     units = dict(result.units, Time="s")
-    columns = result.columns if outlist is None else \
-        {c: result.columns[c] for c in ["Time", *outlist] if c in result.columns}
+    columns = written_columns(result, outlist)
     atomic_write_text(args.out, columns_csv_text(columns, {c: units.get(c, "?") for c in columns}))
     on, flags, warnings = effects_in_scene(scene, result.dof_names)
     print(f"{scene.name}: {result.n_dofs} DOFs ({', '.join(result.dof_names)})")
@@ -77,3 +75,18 @@ def _run(args, started) -> int:
     for text in warnings:
         print(f"modesel: warning: {scene.name}: {text}", file=sys.stderr)
     return 0
+
+
+def written_channels(scene, all_channels: bool = False) -> list | None:
+    """The channels `modesel simulate` computes and writes: an OpenFAST
+    case's OutLists, each name once, in their order (None: every channel
+    modesel computes, for a TOML scene or with --all-channels)."""
+    return list(dict.fromkeys(scene.out_list)) if scene.out_list and not all_channels else None
+
+
+def written_columns(result, channels) -> dict:
+    """The result's columns the CSV holds: Time and `channels` where
+    computed, in that order (all of them where `channels` is None)."""
+    if channels is None:
+        return result.columns
+    return {c: result.columns[c] for c in ["Time", *channels] if c in result.columns}

@@ -61,7 +61,7 @@ from modesel.model.effects.base import Effect
 from modesel.model.gauges import (GAUGE_CHANNEL, GAUGE_UNITS, TIP_CHANNEL, TOWER_GAUGE_CHANNEL, YAW_BEARING_LOADS,
                                   gauge_loads, wanted_gauges, wanted_tips, wanted_tower_gauges)
 from modesel.multibody.rotations import elementary_rotation
-from modesel.vocabulary import RIGID_DOFS, dof_unit, parse_dof
+from modesel.vocabulary import FIELD_PREFIX, RIGID_DOFS, dof_unit, parse_dof
 
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
 #: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
@@ -221,13 +221,13 @@ def canonical_channel(name: str) -> str:
 
 def _spelled_dof(name: str) -> str:
     """A coordinate's name as the vocabulary spells it (`parse_dof`), from any letter case."""
-    if m := re.fullmatch(r"B([1-9]\d*)([FE])([1-9]\d*)", name, re.IGNORECASE):
-        return f"B{m.group(1)}{m.group(2).upper()}{m.group(3)}"
-    if m := re.fullmatch(r"(TFA|TSS|TTor)([1-9]\d*)", name, re.IGNORECASE):
-        return f"{ {'TFA': 'TFA', 'TSS': 'TSS', 'TTOR': 'TTor'}[m.group(1).upper()]}{m.group(2)}"
-    return {d.upper(): d for d in RIGID_DOFS}.get(name.upper(), name)
+    if m := re.fullmatch(r"(B[1-9]\d*)?(TFA|TSS|TTor|F|E)([1-9]\d*)", name, re.IGNORECASE):
+        return f"{(m.group(1) or '').upper()}{_FIELD_PREFIXES[m.group(2).upper()]}{m.group(3)}"
+    return _RIGID_DOFS.get(name.upper(), name)
 
 
+_FIELD_PREFIXES = {p.upper(): p for p in FIELD_PREFIX.values()}
+_RIGID_DOFS = {d.upper(): d for d in RIGID_DOFS}
 #: channels by their upper-case names: CHANNEL_UNITS' with blades 1-9
 _SPELLING = {n.replace("<b>", b).upper(): n.replace("<b>", b)
              for n in CHANNEL_UNITS for b in ("123456789" if "<b>" in n else "-")}
