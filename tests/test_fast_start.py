@@ -24,6 +24,13 @@ NOT_ON_SIMULATE_PATH = ("optuna", "matplotlib", "sympy", "pandas", "modesel.comm
                         "scipy.integrate", "scipy.interpolate", "scipy.linalg")
 
 
+def _terminal_sigint():
+    """The child's SIGINT as a terminal's command has it, whatever the test
+    run's (a run started in the background inherits SIGINT ignored, and
+    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_simulate_imports_no_optuna_matplotlib_or_sympy(tmp_path):
     out = tmp_path / "decay.csv"
     code = (
@@ -190,7 +197,7 @@ def _cold_simulate(tmp_path, out, site=None):
                NUMBA_CACHE_DIR=str(tmp_path / "numba"), MODESEL_CACHE_DIR=str(tmp_path / "cache"))
     return subprocess.Popen([sys.executable, "-m", "modesel", "simulate", str(STEADY_08), "--tmax", "0.2",
                              "--out", str(out)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_terminal_sigint)
 
 
 def _children(pid: int) -> list:

@@ -23,6 +23,13 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 
+def _terminal_sigint():
+    """The child's SIGINT as a terminal's command has it, whatever the test
+    run's (a run started in the background inherits SIGINT ignored, and
+    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def tower_study(folder: Path) -> Path:
     text = (REPO / "studies" / "tower_free_decay.toml").read_text()
     data = REPO / "studies" / "data"
@@ -37,7 +44,8 @@ def tower_study(folder: Path) -> Path:
 def start(study: Path, out: Path, *extra):
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     return subprocess.Popen([sys.executable, "-m", "modesel", "run", str(study), "--out", str(out), *extra],
-                            cwd=study.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=study.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_terminal_sigint)
 
 
 def series_count(out: Path) -> int:

@@ -39,6 +39,13 @@ SIM_S = 0.4                   # wall seconds added to each fake simulation
 PER_RUN = "6"                 # --n-trials of each run that is killed
 
 
+def _terminal_sigint():
+    """The child's SIGINT as a terminal's command has it, whatever the test
+    run's (a run started in the background inherits SIGINT ignored, and
+    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def new_study(folder: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     return make_study(folder, n_trials=40, tower_families='["test_exact"]')
@@ -51,7 +58,8 @@ def launch(study: Path, out: Path, *extra) -> subprocess.Popen:
                                            os.environ.get("PYTHONPATH", "")]))
     return subprocess.Popen([sys.executable, str(LAUNCHER), "run", str(study), "--out", str(out),
                              "--n-jobs", "2", *extra], cwd=study.parent, env=env, start_new_session=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_terminal_sigint)
 
 
 def group_members(pgid: int) -> list:
