@@ -522,3 +522,19 @@ def test_frames_along_a_history_equal_the_reference_kinematics():
             assert_equal_rel(R[k, b], ref.R, "R")
             for i, x in enumerate((ref.r, ref.v, ref.w)):
                 assert_equal_rel(vec[k, b, i], x, ("r", "v", "w")[i])
+
+
+def test_small_rotation_of_arrays_is_the_stack_of_the_scalar_ones():
+    """ElastoDyn's SmllRotTrans (`rotations.small_rotation`) of arrays of
+    angles (the gauge channels over all output times at once) is the stack
+    of the matrices of each time's angles; each is orthonormal to the
+    rounding of its O(t^4) terms and is the identity at zero."""
+    from modesel.multibody.rotations import small_rotation
+    rng = np.random.default_rng(5)
+    t = rng.normal(scale=0.05, size=(3, 7))
+    stack = small_rotation(*t)
+    assert stack.shape == (7, 3, 3)
+    for k in range(7):
+        np.testing.assert_array_equal(stack[k], small_rotation(*t[:, k]))
+        assert np.abs(stack[k] @ stack[k].T - np.eye(3)).max() < 1e-5
+    np.testing.assert_array_equal(small_rotation(np.zeros(2), 0.0)[1], np.eye(3))

@@ -172,8 +172,11 @@ def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bea
     `tower_gauges` (gauge numbers), and the tip channels of blades `tips`
     (module doc) at the output times of `integ`; accelerations: {free
     coordinate: qdd}; yaw_bearing: the YAW_BEARING_LOADS histories [kN, kN m]
-    (for the tower's)."""
+    (for the tower's). One pass over the output times gathers what each
+    time needs from the effects and the kinematics (`collect`); the
+    channels follow for all times at once (`channels`)."""
     eq = built.eq
+    n = len(integ.t)
     sets = {f"blade{b}": PointSet.of_body(eq, f"blade{b}") for b in blade_gauges}
     if tower_gauges:
         sets["tower"] = PointSet.of_body(eq, "tower")
@@ -182,30 +185,35 @@ def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bea
     states = _States(built, integ, accelerations, sets)
     aero = built.effect("aero")
     aero = aero if aero is not None and hasattr(aero, "augmented") else None
-    blade = _BladeGauges(built, blade_gauges, aero) if blade_gauges else None
-    tower = _TowerGauges(built, tower_gauges, yaw_bearing) if tower_gauges else None
-    tip = _Tips(built, tips) if tips else None
-    out = {}
-    for k in range(len(integ.t)):
+    parts = ([_BladeGauges(built, blade_gauges, aero, n)] if blade_gauges else []) + \
+        ([_TowerGauges(built, tower_gauges, yaw_bearing, n)] if tower_gauges else []) + \
+        ([_Tips(built, tips, n)] if tips else [])
+    for k in range(n):
         st = states.at(k)
-        for part in (blade, tower, tip):
-            if part is not None:
-                for name, value in part(st, k).items():
-                    out.setdefault(name, np.empty(len(integ.t)))[k] = value
+        for part in parts:
+            part.collect(st, k)
+    out = {}
+    for part in parts:
+        out.update(part.channels())
     return out
 
 
+def _rows(A, v):
+    """A[k] @ v[k] for each time k: A (n, 3, 3), v (n, 3)."""
+    return np.einsum("kij,kj->ki", A, v)
+
+
 def _section(load, pos, g, outer, arm, axes, force0=None, moment0=None):
-    """The force and moment (module doc) at node g from the node loads
-    `load` (N, 6) of the nodes `outer` beyond it and half of g's (the half
-    element's arm `arm`, a vector), started from force0 and moment0; and
-    their components on `axes` (3, 3), in kN and kN m."""
-    force = load[outer, :3].sum(axis=0) + 0.5 * load[g, :3]
-    moment = (cross(pos[outer] - pos[g], load[outer, :3]).sum(axis=0) + load[outer, 3:].sum(axis=0)
-              + cross(arm, 0.5 * load[g, :3]) + 0.5 * load[g, 3:])
+    """The force and moment (module doc) at node g at each time from the
+    node loads `load` (n, N, 6) of the nodes `outer` beyond it and half of
+    g's (the half element's arm `arm` (n, 3)), started from force0 and
+    moment0 (n, 3); and their components on `axes` (n, 3, 3), in kN and kN m."""
+    force = load[:, outer, :3].sum(axis=1) + 0.5 * load[:, g, :3]
+    moment = (cross(pos[:, outer] - pos[:, g, None], load[:, outer, :3]).sum(axis=1) + load[:, outer, 3:].sum(axis=1)
+              + cross(arm, 0.5 * load[:, g, :3]) + 0.5 * load[:, g, 3:])
     if force0 is not None:
         force, moment = force + force0, moment + moment0
-    return axes @ force / 1e3, axes @ moment / 1e3
+    return _rows(axes, force) / 1e3, _rows(axes, moment) / 1e3
 
 
 def _tip_points(built, b):
@@ -227,26 +235,30 @@ def _tip_points(built, b):
 
 def _section_axes(R, twist, slope, qe):
     """ElastoDyn's axes n (rows) of a blade section (module doc) and its
-    (ThetaIP, ThetaOoP) [rad]: the pitched frame R's axes turned by the
-    structural twist, then by the small rotation of the slopes `slope` (3, ne)."""
-    j1, j2, j3 = R[:, 0], R[:, 1], R[:, 2]
+    (ThetaIP, ThetaOoP) [rad] at each time: the pitched frame R (n, 3, 3)'s
+    axes turned by the structural twist, then by the small rotation of the
+    slopes `slope` (3, ne) at coordinates qe (n, ne)."""
     c, s = np.cos(twist), np.sin(twist)
-    lj = np.array([c * j1 - s * j2, s * j1 + c * j2, j3])
+    j1, j2, j3 = R[:, :, 0], R[:, :, 1], R[:, :, 2]
+    lj = np.stack([c * j1 - s * j2, s * j1 + c * j2, j3], axis=1)
     theta_ip, theta_oop = _slope_angles(slope, qe)
     return small_rotation(c * theta_ip - s * theta_oop, s * theta_ip + c * theta_oop) @ lj, theta_ip, theta_oop
 
 
 def _slope_angles(slope, qe) -> tuple:
-    """(ThetaIP, ThetaOoP) [rad] of a blade section: -slope_y and slope_x of the
-    elastic displacement, `slope` (3, ne) per coordinate, at coordinates qe."""
-    sx, sy = (slope @ qe)[:2] if len(qe) else (0.0, 0.0)
+    """(ThetaIP, ThetaOoP) [rad] of a blade section at each time: -slope_y
+    and slope_x of the elastic displacement, `slope` (3, ne) per coordinate,
+    at coordinates qe (n, ne)."""
+    if not qe.shape[1]:
+        return np.zeros(len(qe)), np.zeros(len(qe))
+    sx, sy = (qe @ slope.T)[:, :2].T
     return -sy, sx
 
 
 class _Tips:
-    """The blade tips' channels at one output time (module doc)."""
+    """The blade tips' channels (module doc)."""
 
-    def __init__(self, built, blades):
+    def __init__(self, built, blades, n):
         self.built, self.blades = built, blades
         model, eq = built.model, built.eq
         turbine = model.turbine
@@ -260,28 +272,36 @@ class _Tips:
                      {b: model.station_slopes(f"blade{b}", np.array([last]))[0] for b in blades})
         self.tip_slope = {b: model.station_slopes(f"blade{b}", np.array([blade.length]))[0] for b in blades}
         self.nacelle = eq.body_index["nacelle"]      # its origin is the tower top (ElastoDyn's point O)
+        self.R = {b: np.empty((n, 3, 3)) for b in blades}
+        self.qe = {b: np.empty((n, len(self.idx[b]))) for b in blades}
+        self.acc, self.pos = ({b: np.empty((n, 3)) for b in blades} for _ in range(2))
+        self.R_n, self.r_top = np.empty((n, 3, 3)), np.empty((n, 3))
 
-    def __call__(self, st, k):
-        out = {}
-        R_n = st.R[self.nacelle]
-        r_top = st.origin[self.nacelle]
+    def collect(self, st, k):
+        self.R_n[k], self.r_top[k] = st.R[self.nacelle], st.origin[self.nacelle]
         for b in self.blades:
-            qe = st.q_all[self.idx[b]]
-            axes, _, _ = _section_axes(st.R[self.index[b]], self.last[0], self.last[1][b], qe)
-            theta_ip, theta_oop = _slope_angles(self.tip_slope[b], qe)
-            acc = st.acc[f"tip{b}"][0]
-            for a, v, vg in zip("xyz", axes @ acc, axes @ (acc - self.gravity)):
-                out[f"TipAL{a}b{b}"], out[f"TipALg{a}b{b}"] = v, vg
+            self.R[b][k], self.qe[b][k] = st.R[self.index[b]], st.q_all[self.idx[b]]
+            self.acc[b][k], self.pos[b][k] = st.acc[f"tip{b}"][0], st.pos[f"tip{b}"][0]
+
+    def channels(self):
+        out = {}
+        for b in self.blades:
+            axes, _, _ = _section_axes(self.R[b], self.last[0], self.last[1][b], self.qe[b])
+            theta_ip, theta_oop = _slope_angles(self.tip_slope[b], self.qe[b])
+            acc = self.acc[b]
+            for i, a in enumerate("xyz"):
+                out[f"TipAL{a}b{b}"] = _rows(axes, acc)[:, i]
+                out[f"TipALg{a}b{b}"] = _rows(axes, acc - self.gravity)[:, i]
             out[f"TipRDxb{b}"], out[f"TipRDyb{b}"] = np.degrees(theta_ip), np.degrees(theta_oop)
-            x, y, z = R_n.T @ (st.pos[f"tip{b}"][0] - r_top)
-            out[f"TipClrnc{b}"] = np.sqrt(x * x + y * y + z * z) if z > 0.0 else np.hypot(x, y)
+            x, y, z = np.einsum("kji,kj->ik", self.R_n, self.pos[b] - self.r_top)      # R_n^T (tip - top)
+            out[f"TipClrnc{b}"] = np.where(z > 0.0, np.sqrt(x * x + y * y + z * z), np.hypot(x, y))
         return out
 
 
 class _BladeGauges:
-    """The blade gauges' channels at one output time (module doc)."""
+    """The blade gauges' channels (module doc)."""
 
-    def __init__(self, built, gauges, aero):
+    def __init__(self, built, gauges, aero, n):
         self.built, self.gauges, self.aero = built, gauges, aero
         turbine = built.model.turbine
         self.gravity = np.array([0.0, 0.0, -turbine.gravity])
@@ -297,35 +317,44 @@ class _BladeGauges:
         self.twist = {b: np.interp(ps[b].s0[:self.nodes, 2], blade.span - blade.span[0], blade.twist)
                       for b in gauges}
         self.span = {b: ps[b].s0[:self.nodes, 2] for b in gauges}         # ElastoDyn's RNodes from the root
+        size = {b: len(self.mass[b]) for b in gauges}
+        self.load = {b: np.zeros((n, size[b], 6)) for b in gauges}
+        self.pos, self.acc = ({b: np.empty((n, size[b], 3)) for b in gauges} for _ in range(2))
+        self.R = {b: np.empty((n, 3, 3)) for b in gauges}
+        self.origin = {b: np.empty((n, 3)) for b in gauges}
+        self.qe = {b: np.empty((n, len(self.idx[b]))) for b in gauges}
 
-    def __call__(self, st, k):
-        out = {}
-        for b, gs in self.gauges.items():
+    def collect(self, st, k):
+        for b in self.gauges:
             name = f"blade{b}"
-            pos, mass = st.pos[name], self.mass[b]
-            load = np.zeros((len(mass), 6))
+            pos = st.pos[name]
             applied = (self.aero.openfast_node_loads(b - 1, pos[:self.nodes]) if self.aero is not None
                        else st.applied.get(name))
             if applied is not None:
-                load[:len(applied), :applied.shape[1]] = applied
-            load[:, :3] += mass[:, None] * (self.gravity[None, :] - st.acc[name])
-            R = st.R[self.index[b]]
-            j1, j2, j3 = R[:, 0], R[:, 1], R[:, 2]
-            qe = st.q_all[self.idx[b]]
+                self.load[b][k, :len(applied), :applied.shape[1]] = applied
+            self.pos[b][k], self.acc[b][k] = pos, st.acc[name]
+            self.R[b][k], self.origin[b][k] = st.R[self.index[b]], st.origin[self.index[b]]
+            self.qe[b][k] = st.q_all[self.idx[b]]
+
+    def channels(self):
+        out = {}
+        for b, gs in self.gauges.items():
+            load, pos, acc, R = self.load[b], self.pos[b], self.acc[b], self.R[b]
+            load[:, :, :3] += self.mass[b][None, :, None] * (self.gravity - acc)
+            j3 = R[:, :, 2]
             for i in gs:
                 g = self.built.model.turbine.blade_gauges[i - 1] - 1
-                axes, theta_ip, theta_oop = _section_axes(R, self.twist[b][g], self.slopes[b][g], qe)
-                f, m = _section(load, pos, g, np.arange(g + 1, len(mass)), 0.25 * self.dr * j3, axes)
+                axes, theta_ip, theta_oop = _section_axes(R, self.twist[b][g], self.slopes[b][g], self.qe[b])
+                f, m = _section(load, pos, g, np.arange(g + 1, load.shape[1]), 0.25 * self.dr * j3, axes)
                 # motions: the node's displacement from its undeflected place in the pitched
                 # frame (TD), its slopes' rotation (RD: ThetaIP, ThetaOoP), its acceleration
                 # in the section's axes, without and with gravity's (AL, ALg: a - g)
-                moved = st.pos[name][g] - st.origin[self.index[b]] - self.span[b][g] * j3
-                acc = st.acc[name][g]
-                values = {"FL": f, "ML": m, "TD": np.array([j1, j2, j3]) @ moved, "AL": axes @ acc,
-                          "ALg": axes @ (acc - self.gravity),
-                          "RD": np.degrees([theta_ip, theta_oop, 0.0])}
-                for k, a in GAUGE_QUANTITIES:
-                    out[f"Spn{i}{k}{a}b{b}"] = values[k]["xyz".index(a)]
+                moved = pos[:, g] - self.origin[b] - self.span[b][g] * j3
+                values = {"FL": f, "ML": m, "TD": np.einsum("kji,kj->ki", R, moved),     # R^T moved
+                          "AL": _rows(axes, acc[:, g]), "ALg": _rows(axes, acc[:, g] - self.gravity),
+                          "RD": np.degrees(np.column_stack([theta_ip, theta_oop, np.zeros(len(R))]))}
+                for q, a in GAUGE_QUANTITIES:
+                    out[f"Spn{i}{q}{a}b{b}"] = values[q][:, "xyz".index(a)]
         return out
 
 
@@ -345,9 +374,9 @@ def wanted_tower_gauges(model, wanted) -> list:
 
 
 class _TowerGauges:
-    """The tower gauges' channels at one output time (module doc)."""
+    """The tower gauges' channels (module doc)."""
 
-    def __init__(self, built, gauges, yaw_bearing):
+    def __init__(self, built, gauges, yaw_bearing, n):
         self.built, self.gauges, self.yaw_bearing = built, gauges, yaw_bearing
         model, eq = built.model, built.eq
         turbine = model.turbine
@@ -365,39 +394,49 @@ class _TowerGauges:
             dofs = model.field_dofs.get(fld, ())
             if dofs:
                 self.slope[fld] = (model.shapes[fld](x).dphi / turbine.tower.length, [eq.index[d] for d in dofs])
+        self.load = np.zeros((n, self.nodes, 6))
+        self.pos, self.acc = np.empty((n, self.nodes, 3)), np.empty((n, self.nodes, 3))
+        self.R_p, self.r_top, self.top_acc, self.origin = (np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)),
+                                                          np.empty((n, 3)))
+        self.q_all = np.empty((n, eq.n_all))
 
-    def _angle(self, fld, g, q_all):
+    def _angle(self, fld, g):
         if fld not in self.slope:
-            return 0.0
+            return np.zeros(len(self.q_all))
         slope, idx = self.slope[fld]
-        return float(slope[:, g] @ q_all[idx])
+        return self.q_all[:, idx] @ slope[:, g]
 
-    def __call__(self, st, k):
-        turbine = self.built.model.turbine
-        pos, n = st.pos["tower"][:self.nodes], self.nodes
-        load = np.zeros((n, 6))
+    def collect(self, st, k):
+        n = self.nodes
         applied = st.applied.get("tower")
         if applied is not None:
-            load[:, :applied.shape[1]] = applied[:n]
-        load[:, :3] += self.mass[:, None] * (self.gravity[None, :] - st.acc["tower"][:n])
-        R_p, r_top = st.R[self.top], st.origin[self.top]
-        f_top = R_p @ np.array([self.yaw_bearing[c][k] for c in YAW_BEARING_LOADS[:3]]) * 1e3
-        m_top = R_p @ np.array([self.yaw_bearing[c][k] for c in YAW_BEARING_LOADS[3:]]) * 1e3
-        f_top = f_top + turbine.yaw_bearing_mass * (self.gravity - st.origin_acc[self.top])
+            self.load[k, :, :applied.shape[1]] = applied[:n]
+        self.pos[k], self.acc[k] = st.pos["tower"][:n], st.acc["tower"][:n]
+        self.R_p[k], self.r_top[k], self.top_acc[k] = st.R[self.top], st.origin[self.top], st.origin_acc[self.top]
+        self.origin[k], self.q_all[k] = st.origin[self.root], st.q_all
+
+    def channels(self):
+        turbine = self.built.model.turbine
+        load, pos, n = self.load, self.pos, self.nodes
+        load[:, :, :3] += self.mass[None, :, None] * (self.gravity - self.acc)
+        f_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[:3]]) * 1e3)
+        m_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[3:]]) * 1e3)
+        f_top = f_top + turbine.yaw_bearing_mass * (self.gravity - self.top_acc)
+        arm = np.broadcast_to(0.25 * self.dh * self.base[1], (len(load), 3))
         out = {}
         for i in self.gauges:
             g = turbine.tower_gauges[i - 1] - 1
-            theta_fa, theta_ss = -self._angle("tower_fa", g, st.q_all), self._angle("tower_ss", g, st.q_all)
-            t1, t2, t3 = small_rotation(theta_ss, 0.0, theta_fa) @ self.base
-            axes = np.array([t1, -t3, t2])            # x, y, z: FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
-            f, m = _section(load, pos, g, np.arange(g + 1, n), 0.25 * self.dh * self.base[1], axes,
-                            f_top, cross(r_top - pos[g], f_top) + m_top)
+            theta_fa, theta_ss = -self._angle("tower_fa", g), self._angle("tower_ss", g)
+            t = small_rotation(theta_ss, np.zeros_like(theta_ss), theta_fa) @ self.base
+            axes = np.stack([t[:, 0], -t[:, 2], t[:, 1]], axis=1)   # FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
+            f, m = _section(load, pos, g, np.arange(g + 1, n), arm, axes,
+                            f_top, cross(self.r_top - pos[:, g], f_top) + m_top)
             # motions (ElastoDyn's rTPT on a1, -a3, a2; AngPosXF: ThetaSS, -ThetaFA; LinAccET on t)
-            moved = pos[g] - st.origin[self.root] - self.height[g] * self.base[1]
-            acc = st.acc["tower"][g]
-            values = {"FL": f, "ML": m, "TD": self.base[[0, 2, 1]] @ moved * np.array([1.0, -1.0, 1.0]),
-                      "AL": axes @ acc, "ALg": axes @ (acc - self.gravity),
-                      "RD": np.degrees([theta_ss, -theta_fa, 0.0])}
-            for k, a in GAUGE_QUANTITIES:
-                out[f"TwHt{i}{k}{a}t"] = values[k]["xyz".index(a)]
+            moved = pos[:, g] - self.origin - self.height[g] * self.base[1]
+            acc = self.acc[:, g]
+            values = {"FL": f, "ML": m, "TD": moved @ self.base[[0, 2, 1]].T * np.array([1.0, -1.0, 1.0]),
+                      "AL": _rows(axes, acc), "ALg": _rows(axes, acc - self.gravity),
+                      "RD": np.degrees(np.column_stack([theta_ss, -theta_fa, np.zeros(len(load))]))}
+            for q, a in GAUGE_QUANTITIES:
+                out[f"TwHt{i}{q}{a}t"] = values[q][:, "xyz".index(a)]
         return out

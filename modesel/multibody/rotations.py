@@ -55,9 +55,11 @@ def elementary_rotation(axis: int, angle) -> np.ndarray:
 def small_rotation(t1, t2, t3=0.0) -> np.ndarray:
     """ElastoDyn's SmllRotTrans (NWTC_Num.f90): the orthonormal matrix of
     the small rotation (t1, t2, t3) [rad] about x1, x2, x3 (rows: the turned
-    axes in the old ones)."""
+    axes in the old ones); for arrays of angles, the (..., 3, 3) stack."""
+    t1, t2, t3 = np.broadcast_arrays(*(np.asarray(t, float) for t in (t1, t2, t3)))
     w = np.sqrt(1.0 - 0.25 * (t1 * t1 + t2 * t2 + t3 * t3))
-    return np.array([
+    m = np.array([
         [1.0 - 0.5 * (t2 * t2 + t3 * t3), 0.5 * t1 * t2 + t3 * w, 0.5 * t1 * t3 - t2 * w],
         [0.5 * t1 * t2 - t3 * w, 1.0 - 0.5 * (t1 * t1 + t3 * t3), 0.5 * t2 * t3 + t1 * w],
         [0.5 * t1 * t3 + t2 * w, 0.5 * t2 * t3 - t1 * w, 1.0 - 0.5 * (t1 * t1 + t2 * t2)]])
+    return np.moveaxis(m, (0, 1), (-2, -1)) if t1.ndim else m
