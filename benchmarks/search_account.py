@@ -71,11 +71,12 @@ def patch():
     wrap(metrics.StopWhenMet, "__call__", "callbacks (stop)")
     wrap(optuna.study.Study, "optimize", "optuna other")
 
-def worker(q, objective, storage, study, seed, n, parent):
+def worker(q, objective, storage, study, seed, n, parent, shared):
     patch()
     import modesel.study.search.runner as runner
     c0 = time.process_time(); t0 = time.perf_counter()
-    err, owner = runner.optimize_worker(objective, storage, study, study.search.sampler, seed, n, None, [], None, None)
+    err, owner = runner.optimize_worker(objective, storage, study, study.search.sampler, seed, n, None, [], None, None,
+                                        shared)
     q.put(dict(TOT=TOT, CNT=CNT, CPU=CPU, wall=time.perf_counter()-t0, cpu=time.process_time()-c0, err=err, owner=owner))
 
 def main(study_file, n_trials, n_jobs, storage=None):
@@ -101,7 +102,9 @@ def main(study_file, n_trials, n_jobs, storage=None):
     ctx = mp.get_context("fork")
     q = ctx.Queue()
     t0 = time.perf_counter()
-    ps = [ctx.Process(target=worker, args=(q, objective, storage, study, worker_seed(0, 0, i), s, os.getpid()))
+    from modesel.study.search.runner import SharedQuota
+    shared = SharedQuota(n_trials) if n_jobs > 1 else None       # as `modesel run`'s forked workers
+    ps = [ctx.Process(target=worker, args=(q, objective, storage, study, worker_seed(0, 0, i), s, os.getpid(), shared))
           for i, s in enumerate(shares)]
     for p in ps: p.start()
     res = [q.get() for _ in ps]

@@ -423,8 +423,49 @@ def test_parallel_workers_share_the_study(tmp_path):
     outcome = run_search(study, out_dir=tmp_path / "out", n_jobs=2, engine=FAKE_ENGINE, progress=False)
     trials = outcome.optuna_study.trials
     assert all(t.state == optuna.trial.TrialState.COMPLETE for t in trials)
-    # each worker evaluates its share (3 + 3); two workers may race on one set
+    # the workers evaluate the 6 new sets together (`SharedQuota`); two workers may race on one set
     assert 5 <= len(distinct(trials)) and len(trials) - sum("duplicate_of" in t.user_attrs for t in trials) == 6
+
+
+def test_forked_workers_take_new_sets_from_one_quota():
+    """`Budget` with a `SharedQuota` (the forked workers of `modesel run`):
+    each worker holds a slot for its next new set and takes another once it
+    has spent it, so a worker whose sets come cheap goes on while the other
+    is busy, and the two stop when the study's quota is spent, not each
+    after a fixed half of it; a repeat spends no slot."""
+    from types import SimpleNamespace
+
+    from modesel.study.search.runner import Budget, SharedQuota
+
+    class Stop:
+        stopped = False
+
+        def stop(self):
+            self.stopped = True
+
+    shared = SharedQuota(5)
+    workers = []
+    for seed in (1, 2):
+        obj = SimpleNamespace(evaluated=0, duplicate_streak=0, space=SimpleNamespace(size=lambda: math.inf))
+        workers.append((obj, Budget(obj, 3, seed, shared=shared), Stop()))
+        assert shared.take()                   # optimize_worker: the first slot, before the first trial
+    (fast, fast_budget, fast_study), (slow, slow_budget, slow_study) = workers
+    for _ in range(3):                         # the fast worker's new sets, while the slow one simulates
+        fast.evaluated += 1
+        fast_budget(fast_study, None)
+        assert not fast_study.stopped
+    fast.duplicate_streak = 1                  # a repeat spends nothing
+    fast_budget(fast_study, None)
+    assert not fast_study.stopped and shared.taken.value == 5
+    fast.duplicate_streak, fast.evaluated = 0, fast.evaluated + 1
+    fast_budget(fast_study, None)              # its held slot spent and none left
+    slow.evaluated += 1
+    slow_budget(slow_study, None)
+    assert fast_study.stopped and slow_study.stopped and fast.evaluated + slow.evaluated == 5
+    alone = SimpleNamespace(evaluated=3, duplicate_streak=0, space=SimpleNamespace(size=lambda: math.inf))
+    study = Stop()
+    Budget(alone, 3)(study, None)              # without a shared quota: its own
+    assert study.stopped
 
 
 def test_changed_definition_is_refused_on_resume(tmp_path):
