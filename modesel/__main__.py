@@ -1,3 +1,3 @@
-from modesel.cli import main
+from modesel.cli import entry
 
-raise SystemExit(main())
+entry()

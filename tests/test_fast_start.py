@@ -48,6 +48,28 @@ def test_simulate_imports_no_optuna_matplotlib_or_sympy(tmp_path):
     assert imported == []
 
 
+def test_simulate_ends_at_once_with_its_output_and_exit_code(tmp_path):
+    """`python -m modesel simulate` (`cli.entry`) ends the process without
+    Python's shutdown once the command returns: what it printed arrives
+    whole through a pipe, a reader that closes the pipe after one line gets
+    no traceback, and the exit codes stay (0; 2 with one line for an error)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    command = [sys.executable, "-m", "modesel", "simulate", str(DECAY), "--tmax", "0.05", "--out"]
+    done = subprocess.run(command + [str(tmp_path / "a.csv")], capture_output=True, text=True, env=env)
+    assert done.returncode == 0 and (tmp_path / "a.csv").is_file()
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("Spar_ED_ForED: ") and any(line.endswith(f"-> {tmp_path / 'a.csv'}") for line in lines)
+    proc = subprocess.Popen(command + [str(tmp_path / "b.csv")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=env, text=True)
+    proc.stdout.readline()
+    proc.stdout.close()                 # as `| head -1`
+    err = proc.stderr.read()
+    assert proc.wait() in (0, -signal.SIGPIPE) and "Traceback" not in err, err
+    bad = subprocess.run(command[:4] + [str(tmp_path / "none.fst"), "--out", str(tmp_path / "c.csv")],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "none.fst" in bad.stderr
+
+
 def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
     """`load_scipy_blas` loads scipy's BLAS module without the package
     scipy.linalg; numba's matrix product then runs on it (against numpy's),
