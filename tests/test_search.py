@@ -466,6 +466,25 @@ def test_forked_workers_take_new_sets_from_one_quota():
     study = Stop()
     Budget(alone, 3)(study, None)              # without a shared quota: its own
     assert study.stopped
+    import modesel.study.search.runner as runner
+    held, taken, done = SharedQuota(5), threading.Event(), threading.Event()
+
+    def killed_while_taking():                 # holds the counter's lock, as a worker killed in `take`
+        with held.taken.get_lock():
+            taken.set()
+            done.wait(10.0)
+
+    holder = threading.Thread(target=killed_while_taking)
+    holder.start()
+    taken.wait(10.0)
+    wait, runner.LOCK_WAIT_S = runner.LOCK_WAIT_S, 0.05
+    try:
+        assert not held.take()                 # this worker stops instead of hanging
+    finally:
+        runner.LOCK_WAIT_S = wait
+        done.set()
+        holder.join()
+    assert held.take()
 
 
 def test_changed_definition_is_refused_on_resume(tmp_path):

@@ -93,6 +93,10 @@ class Owned:
         return self.objective(trial)
 
 
+#: longest wait [s] for the shared quota's lock (`SharedQuota.take`), held for microseconds
+LOCK_WAIT_S = 10.0
+
+
 class SharedQuota:
     """The new sets the forked workers of one `modesel run` evaluate
     together (`total`): a worker takes a slot before each new set it may
@@ -108,12 +112,19 @@ class SharedQuota:
         self.taken = multiprocessing.get_context("fork").Value("i", 0)
 
     def take(self) -> bool:
-        """A slot for one more new set; False when all `total` are taken."""
-        with self.taken.get_lock():
+        """A slot for one more new set; False when all `total` are taken (or
+        when the counter's lock stays held, by a worker killed while taking:
+        this worker then stops rather than wait for it)."""
+        lock = self.taken.get_lock()
+        if not lock.acquire(timeout=LOCK_WAIT_S):
+            return False
+        try:
             if self.taken.value >= self.total:
                 return False
             self.taken.value += 1
             return True
+        finally:
+            lock.release()
 
 
 class Budget:
