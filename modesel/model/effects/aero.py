@@ -200,10 +200,11 @@ class BladeAerodynamics(Effect):
             structural = self.weights > 0
             body = eq.system.body(self.names[0])
             phi = np.asarray(body.shapes, float)
+            augmented = _augmented_line(line, nodes_span, structural)
             self.correction = np.ascontiguousarray(_elastodyn_correction(
-                line, nodes_span, phi, self.node_slopes, structural, self.transfer))
-            self.lumping, self.near, self.offset = _elastodyn_moment_points(line, nodes_span, structural)
-            points, interp, near = _augmented_line(line, nodes_span, structural)
+                augmented, nodes_span, phi, self.node_slopes, self.transfer))
+            self.lumping, self.near, self.offset = _elastodyn_moment_points(augmented)
+            points, interp, near = augmented
             lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
             self.augmented = (interp, near, lengths, _line_lumping(lengths) @ interp)
         else:
@@ -552,21 +553,21 @@ def _augmented_line(line, nodes, structural):
     return points, np.array(rows), _nearest_nodes(points, nodes, structural)
 
 
-def _elastodyn_moment_points(line, nodes, structural):
+def _elastodyn_moment_points(augmented):
     """(L, near, offset) of `node_moments` for ElastoDyn's nodes: the line
-    loads lumped to the points of OpenFAST's augmented line
-    (`_augmented_line`, `_line2_lumping`; L (P, M) per unit station load),
+    loads lumped to the points of OpenFAST's augmented line `augmented`
+    (`_augmented_line`'s (points, I, near); `_line2_lumping`; L (P, M) per unit station load),
     each point's load carried to its nearest structural node, offset (P, 3)
     = the point's (x, y, 0): the part of its offset from that node whose
     moment the node forces lack (the spanwise part is carried by the node
     forces' rigid-exact transfer and `_elastodyn_correction`)."""
-    points, I, near = _augmented_line(line, nodes, structural)
+    points, I, near = augmented
     offset = np.zeros_like(points)
     offset[:, :2] = points[:, :2]
     return _line2_lumping(points[:, 2]) @ I, near, offset
 
 
-def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
+def _elastodyn_correction(augmented, nodes, phi, slopes, T):
     """(M, 3, ne) matrix D: the generalised forces of a blade's elastic
     coordinates as ElastoDyn receives them from AeroDyn, minus those of the
     node forces T f (`_lumped_transfer`), per unit line load at each station:
@@ -581,10 +582,11 @@ def _elastodyn_correction(line, nodes, phi, slopes, structural, T):
     structural node n with the moment of its offset, (r_p - r_n) x F_p.
     ElastoDyn applies a node force through the node's displacement shape
     and a node moment through its rotation (the slopes: a moment M does the
-    work M . (z x s_j)). line (M, 3): station positions in the blade frame;
-    nodes (N,): span of the body nodes; phi (N, 3, ne), slopes (N, 3, ne):
-    their shapes; structural: the nodes ElastoDyn has (not a tip mass)."""
-    points, I, near = _augmented_line(line, nodes, structural)
+    work M . (z x s_j)). augmented: `_augmented_line`'s (points, I, near) of
+    the stations' line in the blade frame and the nodes ElastoDyn has (not a
+    tip mass); nodes (N,): span of the body nodes; phi (N, 3, ne), slopes
+    (N, 3, ne): their shapes."""
+    points, I, near = augmented
     dz = points[:, 2] - np.asarray(nodes, float)[near]
     # rotation of node n per unit coordinate: theta = z x s, so (dz z x F) . theta = dz F . s
     virtual = phi[near] + dz[:, None, None] * slopes[near]                  # (P, 3, ne)
