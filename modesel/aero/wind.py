@@ -31,10 +31,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modesel.errors import ModeselError
+
 #: height [m] at or below which a point is on the ground (module doc)
 GROUND = 1e-9
-
-from modesel.errors import ModeselError
 
 #: uniform wind table columns (InflowWind's order; angles in rad here)
 COLUMNS = ("Time", "VelH", "AngleH", "VelV", "ShrH", "ShrV", "LinShrV", "VelGust", "AngleV")
