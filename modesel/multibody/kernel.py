@@ -33,8 +33,7 @@ whose code it does not hold. The right-hand side `free_system` is compiled
 once, as a cfunc (`system_function`), which the loops (`runge_kutta`,
 `reaction_loads`, `implicit.radau5`) take as their first argument: numba
 would otherwise compile the whole right-hand side again into each loop that
-calls it. `assemble` and `_loads_and_assemble` are inlined into it (numba
-IR), for the same reason: each separately compiled layer re-optimises all
+calls it. `assemble` is inlined into it (numba IR), for the same reason: each separately compiled layer re-optimises all
 it calls (the right-hand side's compile alone, empty cache: 24.0 s with
 `assemble` apart, 19.7-20.4 s inlined). The Python front is `compiled.CompiledRHS`; `engine_cache`
 drops numba's cache when any engine source changes.
@@ -785,25 +784,6 @@ def lu_solve(A, x):
     return True
 
 
-@njit(cache=True, inline="always")
-def _loads_and_assemble(loads, held, t, q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F):
-    """The effects' loads, then assemble; returns a status code. loads =
-    (cfunc of LOADS_SIG, ints, floats, state); `compiled.CompiledRHS` passes
-    `no_loads` for a problem without effects, so that one compiled
-    specialisation of the loops serves every problem. held (0 or 1): the
-    loads function's `held` (LOADS_SIG)."""
-    fn, l_int, l_flt, l_state = loads
-    kinematics(q_all, qd_all, data, work)
-    if held == 0:
-        fnodes[:, :] = 0.0
-        fflag[:] = 0
-    code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state, held)
-    if code != OK:
-        return code
-    assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
-    return OK
-
-
 #: the `solve` argument of `free_system` (numpy int64s, typed int64 as in
 #: SYSTEM_SIG; numba types a literal int as Literal[int]): M_ff and F_f only;
 #: also the accelerations; also the accelerations, with the effects' costly
@@ -860,10 +840,22 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     for k in range(lin_idx.shape[0]):
         gen[lin_idx[k, 0]] -= (lin_kc[k, 0] * q_all[lin_idx[k, 1]] + lin_kc[k, 1] * qd_all[lin_idx[k, 1]]
                                - lin_kc[k, 2])
-    code = _loads_and_assemble(loads, 1 if solve == SOLVE_HELD else 0, t, q_all, qd_all, gvec, fnodes, fflag, gen,
-                               data, work, M, F)
+    # the effects' loads (cfunc of LOADS_SIG: `no_loads` for a problem without
+    # effects, so that one compiled specialisation of the loops serves every
+    # problem; held: the BEM loads and the tower drag of the previous call),
+    # then M and F. Written out here rather than in an inlined helper: numba
+    # copies an inlined function's IR block by block with its whole scope, 1.2 s
+    # of the first run's compile for that helper alone
+    fn, l_int, l_flt, l_state = loads
+    held = 1 if solve == SOLVE_HELD else 0
+    kinematics(q_all, qd_all, data, work)
+    if held == 0:
+        fnodes[:, :] = 0.0
+        fflag[:] = 0
+    code = fn(t, q_all, qd_all, work[0], work[1], gen, fnodes, fflag, l_int, l_flt, l_state, held)
     if code != OK:
         return code, -1
+    assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
     for a in range(nf):
         v = F[free[a]]
         for k in range(presc.shape[0]):

@@ -171,9 +171,10 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
     r = r_local.ravel()
-    if static_loss != 0:
-        c_tip[:] = floats[o_loss:o_loss + B * M]
-        c_hub[:] = floats[o_loss + B * M:o_loss + 2 * B * M]
+    if static_loss != 0:       # element loops: an array slice copy compiles numba's shape-error message (2 s)
+        for i in range(B * M):
+            c_tip[i] = floats[o_loss + i]
+            c_hub[i] = floats[o_loss + B * M + i]
     else:                 # BemSolver.solve_into: constants from the radius of this solve
         for i in range(B * M):
             c_tip[i] = 0.5 * c[0] * (c[1] - r[i]) / r[i]
@@ -223,7 +224,10 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
                 fnodes[s + i, k] += forces[b, i, k]
         fflag[blades[b]] = 1
     if state[CHANNEL_FLAG] != 0.0:          # the node point sets follow the 7 flags
-        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r.max(), vrel, tsr,
+        r_max = r[0]
+        for i in range(1, B * M):
+            r_max = max(r_max, r[i])
+        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r_max, vrel, tsr,
                         skew[0, 0], state[o_ch:o_ch + 15])
 
 
