@@ -24,7 +24,11 @@ file beside it) so that every run does its whole budget. Two rates per run:
 The turbine study's internal reference is built once before timing and
 copied into each output folder (it is cached there), so no timed run
 rebuilds it. Timings on a machine shared with other jobs vary; the script
-prints the load average before and after.
+prints the load average before and after, and two ceilings of the speed-up
+at the largest job count: a pure-Python loop (`machine_ceiling`) and, before
+and after each study's runs, the study's own scene simulated in that many
+processes at once (`simulation_ceiling`), which also feels the processes'
+use of the shared caches and memory.
 """
 from __future__ import annotations
 
@@ -208,6 +212,49 @@ def machine_ceiling(jobs: int, n: int = 20_000_000) -> float:
     return jobs * one / together
 
 
+_SCENE = None
+
+
+def _simulate_n(n: int) -> float:
+    """Wall [s] of n simulations of the probe's scene (`_SCENE`, set before forking)."""
+    from modesel.simulation.api import simulate
+    scene, tmax, dt = _SCENE
+    t0 = time.perf_counter()
+    for _ in range(n):
+        simulate(scene, tmax=tmax, dt=dt)
+    return time.perf_counter() - t0
+
+
+def simulation_ceiling(study: Path, jobs: int, seconds: float = 3.0) -> float:
+    """Throughput of `jobs` processes simulating the study's first scene (its
+    default mode set, the study's tmax and dt) at once, relative to one
+    process: the ceiling of the search's speed-up set by the simulations
+    alone, which touch more memory than `machine_ceiling`'s loop and so feel
+    the other processes' use of the shared caches (on a 2-core machine from
+    1.0x to 1.35x more CPU per simulation between runs). About `seconds` per
+    round; forked after a warm-up, so numba's code is loaded once."""
+    import multiprocessing
+    import tomllib
+
+    from modesel.simulation.api import simulate
+    from modesel.simulation.scene import load_scene
+    global _SCENE
+    spec = tomllib.loads(study.read_text())["scene"][0]
+    scene = load_scene(study.parent / spec["path"])
+    _SCENE = (scene, spec.get("tmax"), spec.get("dt"))
+    t0 = time.perf_counter()
+    simulate(scene, tmax=_SCENE[1], dt=_SCENE[2])            # warm (cache loaded before the fork)
+    n = max(3, int(seconds / max(time.perf_counter() - t0, 1e-3)))
+    one = _simulate_n(n)
+    n = max(3, int(n * seconds / max(one, 1e-3)))
+    one = _simulate_n(n)
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        t0 = time.perf_counter()
+        pool.map(_simulate_n, [n] * jobs)
+        together = time.perf_counter() - t0
+    return jobs * one / together
+
+
 def print_rows(rows: list) -> None:
     print(f"{'study':<9} {'mode':<26} {'trials':>6} {'sets':>5} {'search [s]':>10} {'trials/min':>10} "
           f"{'sets/min':>9} {'speed-up':>8} {'whole [s]':>9} {'whole sets/min':>14}")
@@ -238,11 +285,16 @@ def main_bench() -> None:
           f"loop in {a.max_jobs} processes runs {machine_ceiling(a.max_jobs):.2f}x as fast as in one "
           f"(the ceiling of any speed-up now)", flush=True)
     rows = []
-    if not a.skip_tower:
-        rows += bench_jobs("tower", STUDIES["tower"], a.tower_sets, jobs)
+    for label, skip in (("tower", a.skip_tower), ("turbine", a.skip_turbine)):
+        if skip:
+            continue
+        before = simulation_ceiling(STUDIES[label], a.max_jobs)
+        rows += bench_jobs(label, STUDIES[label], a.tower_sets if label == "tower" else a.turbine_sets, jobs)
+        after = simulation_ceiling(STUDIES[label], a.max_jobs)
+        print(f"  {label}: its scene's simulation alone in {a.max_jobs} processes at once runs {before:.2f}x "
+              f"(before the runs) and {after:.2f}x (after) as fast as in one (the ceiling the simulations "
+              f"set)", flush=True)
         print_rows(rows)
-    if not a.skip_turbine:
-        rows += bench_jobs("turbine", STUDIES["turbine"], a.turbine_sets, jobs)
     if not a.skip_postgres:
         try:
             if not a.skip_tower:

@@ -11,6 +11,7 @@ harmonics exactly; `test_rich` captures one more harmonic per mode but with a
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -282,7 +283,10 @@ def test_search_leaves_the_garbage_collector_as_it_found_it(tmp_path):
         engine = Engine(fake_load_scene, lambda *a, **k: seen.append(gc.get_freeze_count())
                         or fake_simulate(*a, **k))
         run_search(study, out_dir=tmp_path / "a", engine=engine, progress=False)
-        assert min(seen[1:]) > 0 and gc.get_freeze_count() == 0 and gc.isenabled()
+        # the warm-up: the default set, then one set per family of the space, on each scene
+        n_warm = len(study.scenes) * (1 + len(SearchSpace(study.search).family_sets()))
+        assert len(seen) > n_warm and max(seen[:n_warm]) == 0
+        assert min(seen[n_warm:]) > 0 and gc.get_freeze_count() == 0 and gc.isenabled()
         gc.freeze()
         run_search(study, out_dir=tmp_path / "b", engine=FAKE_ENGINE, progress=False)
         assert gc.get_freeze_count() > 0
@@ -320,15 +324,27 @@ class CountingSimulate:
         return fake_simulate(scene, modeset, tmax=tmax, dt=dt)
 
 
+def warm_up_calls(study) -> list:
+    """The labels `Objective.warm_up` simulates after the scene defaults: one
+    set per family of the space (`SearchSpace.family_sets`), on each scene."""
+    return [m.label() for m in SearchSpace(study.search).family_sets() for _ in study.scenes]
+
+
 def test_resume_adds_trials_without_repeating(tmp_path):
     study = load(make_study(tmp_path, n_trials=5))
     out = tmp_path / "out"
     sim = CountingSimulate()
     engine = Engine(fake_load_scene, sim)
+    warm = warm_up_calls(study)
     first = run_search(study, out_dir=out, engine=engine, progress=False).optuna_study
     before = {t.number: (t.params, t.values) for t in first.trials}
     assert len(distinct(first.trials)) == 5
+    assert sim.calls[:len(warm)] == warm
+    del sim.calls[:len(warm)]                 # the trials' calls only
+    mark = len(sim.calls)
     second = run_search(study, out_dir=out, engine=engine, progress=False).optuna_study
+    assert sim.calls[mark:mark + len(warm)] == warm
+    del sim.calls[mark:mark + len(warm)]
     trials = second.trials
     assert [t.number for t in trials] == list(range(len(trials)))
     assert len(distinct(trials)) == 10
@@ -665,6 +681,10 @@ def test_identical_shapes_are_simulated_once(tmp_path):
     outcome = run_search(study, out_dir=tmp_path / "out", engine=Engine(fake_load_scene, sim),
                          progress=False)
     trials = outcome.optuna_study.trials
+    # the warm-up: each family once at its largest count (relaxed_tipmass is clamped's shapes), then the trials
+    assert sim.calls[:2] == warm_up_calls(study) == ["tower_fa=clamped:3 blade_flap=test_exact:1",
+                                                     "tower_fa=clamped:1 blade_flap=test_exact:2"]
+    del sim.calls[:2]
     assert sorted(sim.calls) == sorted(set(sim.calls)) and len(sim.calls) == 6
     assert not any("relaxed_tipmass" in c for c in sim.calls)
     proposed = [t for t in trials if t.params.get("tower_fa.family") == "relaxed_tipmass"]
@@ -957,3 +977,29 @@ def test_fieldwise_needs_at_most_a_quarter_of_the_enumeration(subspace):
             assert label in order, (level, seed)
             fractions.append((order.index(label) + 1) / len(table))
         assert np.mean(fractions) <= 0.25, (level, fractions)
+
+
+def test_warm_up_uses_every_family_once_before_the_workers_fork(tmp_path):
+    """`Objective.warm_up` simulates the scene defaults, then one set per
+    family of the space at the family's largest count (what a family's first
+    use imports or loads, the workers then inherit), once per process and
+    objective: a forked worker, which holds the same objective, skips it."""
+    study = load(make_study(tmp_path, n_trials=4))
+    space = SearchSpace(study.search)
+    sets = space.family_sets()
+    assert [m.label() for m in sets] == ["tower_fa=test_exact:5 blade_flap=test_exact:1",
+                                         "tower_fa=test_rich:4 blade_flap=test_exact:1"]
+    assert all(space.contains(m) for m in sets)
+    sim = CountingSimulate()
+    engine = Engine(fake_load_scene, sim)
+    scenes = load_scenes(study, engine)
+    objective = Objective(study, scenes, prepare_references(study, scenes, engine, None, None), engine, None)
+    objective.warm_up()
+    assert sim.calls == warm_up_calls(study)
+    objective.warm_up()
+    assert sim.calls == warm_up_calls(study)
+    pid = os.fork()
+    if pid == 0:                      # a forked worker: the objective is warm already
+        objective.warm_up()
+        os._exit(0 if sim.calls == warm_up_calls(study) else 1)
+    assert os.waitpid(pid, 0)[1] == 0

@@ -72,6 +72,11 @@ def load_case_errors(scene_errors: dict, weights: dict) -> dict:
     return {ch: sum(weights[s] * scene_errors[s][ch] for s in scene_errors) / total for ch in channels}
 
 
+#: ids of the objectives warmed up in this process (`Objective.warm_up`); a
+#: forked worker inherits the set with the warmed objects, a spawned one starts empty
+_WARMED: set = set()
+
+
 class Objective:
     """Evaluates one mode set on the load case; an Optuna objective."""
 
@@ -145,7 +150,20 @@ class Objective:
         A compared channel that a scene's simulation does not compute (e.g.
         a reaction force modesel has no coordinate for) fails every trial:
         it is a one-line error here, before the search starts. Other errors
-        are left to the trials, which record them."""
+        are left to the trials, which record them.
+
+        Then a few steps of each scene with one set per family of the space
+        (`SearchSpace.family_sets`): a family's first use imports what it
+        needs (scipy.optimize for the cantilever roots of `clamped` and
+        `relaxed_tipmass`, 0.3-0.6 s) and the largest bodies load the
+        compiled invariant route (`multibody.invariant_sums`, 0.1-0.2 s).
+        `modesel run` warms up before it forks its workers, so they inherit
+        all this; before, each worker paid it inside its first trials, a
+        fixed cost per worker that took the tower study's 2-job speed-up
+        from 2x to 1.6-1.7x (`benchmarks/bench_search.py`). Once per process
+        and objective: a forked worker finds it done."""
+        if id(self) in _WARMED:
+            return
         from modesel.model.outputs import canonical_channel
         compared = list(self.study.compare.channels)
         for spec in self.study.scenes:
@@ -163,6 +181,16 @@ class Objective:
                     f"scene '{spec.name}' does not compute the compared channel{'s' if len(missing) > 1 else ''} "
                     f"{', '.join(missing)}; it computes: {', '.join(c for c in columns if c != 'Time')}",
                     file=str(self.study.path), field="compare.channels")
+        only = {"channels": compared} if self.engine.selects_channels else {}
+        for modeset in self.space.family_sets():
+            for spec in self.study.scenes:
+                scene = self.scenes[spec.name]
+                dt = spec.dt or getattr(scene, "dt", None)
+                try:
+                    self.engine.simulate(scene, modeset, tmax=5 * dt if dt else None, dt=dt, **only)
+                except ModeselError:        # a set the scene cannot build: its trials will say so
+                    continue
+        _WARMED.add(id(self))
 
     def __call__(self, trial):
         try:

@@ -76,6 +76,30 @@ class SearchSpace:
             fields[space.field] = FieldModes(fam.family, count, params)
         return ModeSet(fields)
 
+    def family_sets(self) -> list:
+        """One set per family the space allows (in the order the fields name
+        them): the first field that allows the family takes it at its largest
+        count, every other field its first family at its smallest count;
+        continuous parameters at mid-range. Between them they use every family,
+        and the largest bodies the space can build, once (`Objective.warm_up`)."""
+        def first(space):
+            fam = space.families[0]
+            return FieldModes(fam.family, fam.min_count, {p: 0.5 * (lo + hi) for p, (lo, hi) in fam.params.items()})
+
+        sets, seen = [], set()
+        for space in self.spec.fields:
+            for fam in space.families:
+                if fam.family in seen:
+                    continue
+                seen.add(fam.family)
+                fields = {other.field: first(other) for other in self.spec.fields}
+                fields[space.field] = FieldModes(fam.family, fam.max_count,
+                                                 {p: 0.5 * (lo + hi) for p, (lo, hi) in fam.params.items()})
+                modeset = self.canonical(ModeSet(fields))
+                if all(modeset.label() != other.label() for other in sets):
+                    sets.append(modeset)
+        return sets
+
     def contains(self, modeset: ModeSet) -> bool:
         """Whether `modeset` has every searched field with an allowed family,
         count and parameters."""
