@@ -33,9 +33,10 @@ whose code it does not hold. The right-hand side `free_system` is compiled
 once, as a cfunc (`system_function`), which the loops (`runge_kutta`,
 `reaction_loads`, `implicit.radau5`) take as their first argument: numba
 would otherwise compile the whole right-hand side again into each loop that
-calls it. `assemble` is inlined into it (numba IR), for the same reason: each separately compiled layer re-optimises all
-it calls (the right-hand side's compile alone, empty cache: 24.0 s with
-`assemble` apart, 19.7-20.4 s inlined). The Python front is `compiled.CompiledRHS`; `engine_cache`
+calls it. `assemble` is inlined into it (numba IR), for the same reason:
+each separately compiled layer re-optimises all it calls (the right-hand
+side's compile alone, empty cache: 24.0 s with `assemble` apart, 19.7-20.4 s
+inlined). The Python front is `compiled.CompiledRHS`; `engine_cache`
 drops numba's cache when any engine source changes.
 """
 from __future__ import annotations

@@ -80,8 +80,9 @@ class SearchSpace:
         """One set per family the space allows (in the order the fields name
         them): the first field that allows the family takes it at its largest
         count, every other field its first family at its smallest count;
-        continuous parameters at mid-range. Between them they use every family,
-        and the largest bodies the space can build, once (`Objective.warm_up`)."""
+        continuous parameters at mid-range; sets with the same canonical form
+        once. Between them they use every family, each at its largest count
+        (`Objective.warm_up`)."""
         def first(space):
             fam = space.families[0]
             return FieldModes(fam.family, fam.min_count, {p: 0.5 * (lo + hi) for p, (lo, hi) in fam.params.items()})
