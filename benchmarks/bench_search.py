@@ -199,17 +199,23 @@ def _spin(n: int) -> float:
     return time.perf_counter() - t0
 
 
+def _parallel_ratio(work, n: int, jobs: int) -> float:
+    """Throughput of `jobs` forked processes each running `work(n)` (which
+    returns its wall [s]) at once, relative to one process running it."""
+    import multiprocessing
+    one = work(n)
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        t0 = time.perf_counter()
+        pool.map(work, [n] * jobs)
+        together = time.perf_counter() - t0
+    return jobs * one / together
+
+
 def machine_ceiling(jobs: int, n: int = 20_000_000) -> float:
     """Throughput of `jobs` processes running the same pure-Python loop at
     once, relative to one: the most any `--n-jobs` can gain on this machine
     right now (other users' load included)."""
-    import multiprocessing
-    one = _spin(n)
-    with multiprocessing.get_context("fork").Pool(jobs) as pool:
-        t0 = time.perf_counter()
-        pool.map(_spin, [n] * jobs)
-        together = time.perf_counter() - t0
-    return jobs * one / together
+    return _parallel_ratio(_spin, n, jobs)
 
 
 _SCENE = None
@@ -233,7 +239,6 @@ def simulation_ceiling(study: Path, jobs: int, seconds: float = 3.0) -> float:
     the other processes' use of the shared caches (on a 2-core machine from
     1.0x to 1.35x more CPU per simulation between runs). About `seconds` per
     round; forked after a warm-up, so numba's code is loaded once."""
-    import multiprocessing
     import tomllib
 
     from modesel.simulation.api import simulate
@@ -245,14 +250,8 @@ def simulation_ceiling(study: Path, jobs: int, seconds: float = 3.0) -> float:
     t0 = time.perf_counter()
     simulate(scene, tmax=_SCENE[1], dt=_SCENE[2])            # warm (cache loaded before the fork)
     n = max(3, int(seconds / max(time.perf_counter() - t0, 1e-3)))
-    one = _simulate_n(n)
-    n = max(3, int(n * seconds / max(one, 1e-3)))
-    one = _simulate_n(n)
-    with multiprocessing.get_context("fork").Pool(jobs) as pool:
-        t0 = time.perf_counter()
-        pool.map(_simulate_n, [n] * jobs)
-        together = time.perf_counter() - t0
-    return jobs * one / together
+    n = max(3, int(n * seconds / max(_simulate_n(n), 1e-3)))      # about `seconds` per round
+    return _parallel_ratio(_simulate_n, n, jobs)
 
 
 def print_rows(rows: list) -> None:
