@@ -74,7 +74,7 @@ class TowerDragLoads(Effect):
         table reaches beyond them (module doc); heights at rest from the
         nodes' (the undeflected tower is straight)."""
         q, qd = _rest(built)
-        z_rest = self.nodes.kinematics(built.frames(q, qd), q, qd)[0][:, 2]
+        z_rest = self.nodes.reference_kinematics(built.eq, q, qd)[0][:, 2]
         local = self.nodes.s0[:, 2]
         slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
         tower = built.model.turbine.tower
