@@ -132,18 +132,6 @@ class PointSet:
                q_all[self.idx], qd_all[self.idx], pos, vel)
         return pos, vel
 
-    def reference_kinematics(self, eq, q_all, qd_all):
-        """`kinematics` by the numpy reference (`KaneEquations.kinematics` and
-        `node_kinematics`), for one-off uses while a scene is built: they then
-        compile nothing before the first run's parallel compile
-        (`simulation.first_run`), which the compiled frames would hold up by
-        their own compile (3 s of the turbine scene's first run)."""
-        q_all, qd_all = np.asarray(q_all, float), np.asarray(qd_all, float)
-        st = eq.kinematics(q_all, qd_all)[self.body]
-        pos, vel, _ = node_kinematics(st.R, st.r, st.v, st.w, self.s0, self.Phi, self.S, self.axis,
-                                      q_all[self.idx], qd_all[self.idx])
-        return pos, vel
-
 
 @njit(cache=True)
 def points(R, vec, s0, Phi, S, axis, qe, qde, pos, vel):

@@ -74,7 +74,10 @@ class TowerDragLoads(Effect):
         table reaches beyond them (module doc); heights at rest from the
         nodes' (the undeflected tower is straight)."""
         q, qd = _rest(built)
-        z_rest = self.nodes.reference_kinematics(built.eq, q, qd)[0][:, 2]
+        # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
+        # compile here, before the first run's parallel compile (`simulation.first_run`)
+        eq = built.eq
+        z_rest = eq.node_kinematics("tower", eq.kinematics(q, qd)[eq.body_index["tower"]], q, qd)[0][:, 2]
         local = self.nodes.s0[:, 2]
         slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
         tower = built.model.turbine.tower
