@@ -289,10 +289,9 @@ class _Tips:
         for b in self.blades:
             axes, _, _ = _section_axes(self.R[b], self.last[0], self.last[1][b], self.qe[b])
             theta_ip, theta_oop = _slope_angles(self.tip_slope[b], self.qe[b])
-            acc = self.acc[b]
+            al, alg = _rows(axes, self.acc[b]), _rows(axes, self.acc[b] - self.gravity)
             for i, a in enumerate("xyz"):
-                out[f"TipAL{a}b{b}"] = _rows(axes, acc)[:, i]
-                out[f"TipALg{a}b{b}"] = _rows(axes, acc - self.gravity)[:, i]
+                out[f"TipAL{a}b{b}"], out[f"TipALg{a}b{b}"] = al[:, i], alg[:, i]
             out[f"TipRDxb{b}"], out[f"TipRDyb{b}"] = np.degrees(theta_ip), np.degrees(theta_oop)
             x, y, z = np.einsum("kji,kj->ik", self.R_n, self.pos[b] - self.r_top)      # R_n^T (tip - top)
             out[f"TipClrnc{b}"] = np.where(z > 0.0, np.sqrt(x * x + y * y + z * z), np.hypot(x, y))
@@ -340,7 +339,7 @@ class _BladeGauges:
     def channels(self):
         out = {}
         for b, gs in self.gauges.items():
-            load, pos, acc, R = self.load[b], self.pos[b], self.acc[b], self.R[b]
+            load, pos, acc, R = self.load[b].copy(), self.pos[b], self.acc[b], self.R[b]     # the applied loads kept
             load[:, :, :3] += self.mass[b][None, :, None] * (self.gravity - acc)
             j3 = R[:, :, 2]
             for i in gs:
@@ -418,7 +417,7 @@ class _TowerGauges:
 
     def channels(self):
         turbine = self.built.model.turbine
-        load, pos, n = self.load, self.pos, self.nodes
+        load, pos, n = self.load.copy(), self.pos, self.nodes          # the applied loads kept
         load[:, :, :3] += self.mass[None, :, None] * (self.gravity - self.acc)
         f_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[:3]]) * 1e3)
         m_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[3:]]) * 1e3)
