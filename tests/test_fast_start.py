@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from test_interrupt import terminal_sigint
+
 ROOT = Path(__file__).resolve().parents[1]
 DECAY = ROOT / "studies/data/openfast_free_decay/tower_fa_ss_shaft/Spar_ED_ForED.dat"
 #: packages `modesel simulate` must not import (search, plotting, symbolic, the
@@ -22,13 +24,6 @@ DECAY = ROOT / "studies/data/openfast_free_decay/tower_fa_ss_shaft/Spar_ED_ForED
 NOT_ON_SIMULATE_PATH = ("optuna", "matplotlib", "sympy", "pandas", "modesel.commands.candidates",
                         "modesel.commands.run", "modesel.multibody.symbolic",
                         "scipy.integrate", "scipy.interpolate", "scipy.linalg")
-
-
-def _terminal_sigint():
-    """The child's SIGINT as a terminal's command has it, whatever the test
-    run's (a run started in the background inherits SIGINT ignored, and
-    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def test_simulate_imports_no_optuna_matplotlib_or_sympy(tmp_path):
@@ -219,7 +214,7 @@ def _cold_simulate(tmp_path, out, site=None):
                NUMBA_CACHE_DIR=str(tmp_path / "numba"), MODESEL_CACHE_DIR=str(tmp_path / "cache"))
     return subprocess.Popen([sys.executable, "-m", "modesel", "simulate", str(STEADY_08), "--tmax", "0.2",
                              "--out", str(out)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, preexec_fn=_terminal_sigint)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=terminal_sigint)
 
 
 def _children(pid: int) -> list:

@@ -23,10 +23,11 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _terminal_sigint():
+def terminal_sigint():
     """The child's SIGINT as a terminal's command has it, whatever the test
     run's (a run started in the background inherits SIGINT ignored, and
-    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
+    modesel leaves an ignored SIGINT ignored, as its search workers need);
+    also for tests/test_fast_start.py and tests/faults."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
@@ -45,7 +46,7 @@ def start(study: Path, out: Path, *extra):
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     return subprocess.Popen([sys.executable, "-m", "modesel", "run", str(study), "--out", str(out), *extra],
                             cwd=study.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_terminal_sigint)
+                            preexec_fn=terminal_sigint)
 
 
 def series_count(out: Path) -> int:

@@ -31,19 +31,13 @@ import pandas as pd
 import pytest
 
 from test_search import make_study
+from test_interrupt import terminal_sigint
 
 REPO = Path(__file__).resolve().parents[2]
 LAUNCHER = Path(__file__).with_name("fake_modesel.py")
 N_SETS = 25                   # test_exact:1..5 for tower_fa and blade_flap
 SIM_S = 0.4                   # wall seconds added to each fake simulation
 PER_RUN = "6"                 # --n-trials of each run that is killed
-
-
-def _terminal_sigint():
-    """The child's SIGINT as a terminal's command has it, whatever the test
-    run's (a run started in the background inherits SIGINT ignored, and
-    modesel leaves an ignored SIGINT ignored, as its search workers need)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def new_study(folder: Path) -> Path:
@@ -59,7 +53,7 @@ def launch(study: Path, out: Path, *extra) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, str(LAUNCHER), "run", str(study), "--out", str(out),
                              "--n-jobs", "2", *extra], cwd=study.parent, env=env, start_new_session=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_terminal_sigint)
+                            preexec_fn=terminal_sigint)
 
 
 def group_members(pgid: int) -> list:
