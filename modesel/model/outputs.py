@@ -111,7 +111,9 @@ CHANNEL_ALIASES = {
     # AeroDyn's older names of its rotor loads (AeroDyn_IO_Params.f90 ValidParamAry: RtFld* = RtAero*)
     "RtAeroCp": ("RtFldCp",), "RtAeroCq": ("RtFldCq",), "RtAeroCt": ("RtFldCt",), "RtAeroPwr": ("RtFldPwr",),
     "RtAeroFxh": ("RtFldFxh",), "RtAeroFyh": ("RtFldFyh",), "RtAeroFzh": ("RtFldFzh",),
-    "RtAeroMxh": ("RtFldMxh",), "RtAeroMyh": ("RtFldMyh",), "RtAeroMzh": ("RtFldMzh",), "LSSTipAxa": ("LSSTipA", "LSSTipAxs"), "LSSGagAxa": ("LSSGagA", "LSSGagAxs"), "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
+    "RtAeroMxh": ("RtFldMxh",), "RtAeroMyh": ("RtFldMyh",), "RtAeroMzh": ("RtFldMzh",),
+    "LSSTipAxa": ("LSSTipA", "LSSTipAxs"), "LSSGagAxa": ("LSSGagA", "LSSGagAxs"),
+    "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
     "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
     "LSShftFzs": ("LSSGagFzs",),
     "PtfmSurge": ("PtfmTDxi",), "PtfmPitch": ("PtfmRDyi",),

@@ -276,7 +276,6 @@ def kinematics(q, qd, data, work):
                                  + Rp[i, 2] * Jrho[2, col])
 
 
-# ------------------------------------------------------------- body contributions
 @njit(cache=True)
 def kinematics_along(Q, QD, data, work, R_out, vec_out):
     """`kinematics` at each state (rows of Q, QD: a history): the frames
@@ -288,6 +287,7 @@ def kinematics_along(Q, QD, data, work, R_out, vec_out):
         vec_out[k] = work[1]
 
 
+# ------------------------------------------------------------- body contributions
 @njit(cache=True)
 def _rotate_tensor(R, body_frame, out):
     """out = R T R^T for the 3x3 tensor T stored row by row in `body_frame`
