@@ -166,11 +166,15 @@ class Objective:
             return
         from modesel.model.outputs import canonical_channel
         compared = list(self.study.compare.channels)
-        for spec in self.study.scenes:
+
+        def few_steps(spec, modeset, **options):
             scene = self.scenes[spec.name]
             dt = spec.dt or getattr(scene, "dt", None)
+            return self.engine.simulate(scene, modeset, tmax=5 * dt if dt else None, dt=dt, **options)
+
+        for spec in self.study.scenes:
             try:
-                result = self.engine.simulate(scene, None, tmax=5 * dt if dt else None, dt=dt)
+                result = few_steps(spec, None)
             except ModeselError:
                 continue
             columns = getattr(result, "columns", None) or {}
@@ -184,10 +188,8 @@ class Objective:
         only = {"channels": compared} if self.engine.selects_channels else {}
         for modeset in self.space.family_sets():
             for spec in self.study.scenes:
-                scene = self.scenes[spec.name]
-                dt = spec.dt or getattr(scene, "dt", None)
                 try:
-                    self.engine.simulate(scene, modeset, tmax=5 * dt if dt else None, dt=dt, **only)
+                    few_steps(spec, modeset, **only)
                 except ModeselError:        # a set the scene cannot build: its trials will say so
                     continue
         _WARMED.add(id(self))
