@@ -283,8 +283,8 @@ def test_search_leaves_the_garbage_collector_as_it_found_it(tmp_path):
         engine = Engine(fake_load_scene, lambda *a, **k: seen.append(gc.get_freeze_count())
                         or fake_simulate(*a, **k))
         run_search(study, out_dir=tmp_path / "a", engine=engine, progress=False)
-        # the warm-up: the default set, then one set per family of the space, on each scene
-        n_warm = len(study.scenes) * (1 + len(SearchSpace(study.search).family_sets()))
+        # the warm-up: the default set on each scene, then the family sets (`warm_up_calls`)
+        n_warm = len(study.scenes) + len(warm_up_calls(study))
         assert len(seen) > n_warm and max(seen[:n_warm]) == 0
         assert min(seen[n_warm:]) > 0 and gc.get_freeze_count() == 0 and gc.isenabled()
         gc.freeze()
