@@ -124,16 +124,19 @@ def wanted_tips(model, wanted) -> list:
 
 
 class _States:
-    """At output time k (`at(k)`): the effects' node loads, the points'
-    positions and the bodies' frames at the state, and the points' and
-    bodies' origins' accelerations by the central difference (module doc),
-    for the point sets `sets` {key: PointSet}; one evaluation of the effects
-    per time, shared by the blade and tower gauges and the tips. The frames
-    at every output time's state and its two neighbours along the motion
-    come first, in three compiled calls (`FrameCache.along`)."""
+    """The states at the output times: every time's point positions `pos`
+    and accelerations `acc` (n, M, 3) of the point sets `sets` {key:
+    PointSet} (the acceleration by the central difference, module doc), the
+    bodies' rotations `R` (n, bodies, 3, 3), origins `origin` and the
+    origins' accelerations `origin_acc` (n, bodies, 3): the frames at every
+    output time's state and its two neighbours along the motion come from
+    three compiled calls (`FrameCache.along`), the points' motions from the
+    numpy reference at all times at once (`PointSet.along`). `at(k)`
+    evaluates the effects' loads at output time k: one evaluation per time,
+    shared by the blade and tower gauges."""
 
     def __init__(self, built, integ, accelerations, sets):
-        self.built, self.integ, self.sets = built, integ, sets
+        self.built, self.integ = built, integ
         eq = built.eq
         free = list(built.model.system.free)
         n = len(integ.t)
@@ -145,27 +148,21 @@ class _States:
             QDD[:, eq.free_idx] = np.column_stack([accelerations[c] for c in free])
         cache = built.frame_cache
         self.frames = cache.along(self.Q, self.QD)
-        self.moved = {sign: (self.Q + sign * STEP * self.QD, self.QD + sign * STEP * QDD) for sign in (1.0, -1.0)}
-        self.moved_frames = {sign: cache.along(*state) for sign, state in self.moved.items()}
+        moved = {sign: (self.Q + sign * STEP * self.QD, self.QD + sign * STEP * QDD) for sign in (1.0, -1.0)}
+        moved_frames = {sign: cache.along(*state) for sign, state in moved.items()}
+        self.pos = {key: ps.along(self.frames, self.Q, self.QD)[0] for key, ps in sets.items()}
+        velocity = {sign: {key: ps.along(moved_frames[sign], *moved[sign])[1] for key, ps in sets.items()}
+                    for sign in moved}
+        self.acc = {key: (velocity[1.0][key] - velocity[-1.0][key]) / (2.0 * STEP) for key in sets}
+        self.R, self.origin = self.frames[0], self.frames[1][:, :, 0]
+        self.origin_acc = (moved_frames[1.0][1][:, :, 1] - moved_frames[-1.0][1][:, :, 1]) / (2.0 * STEP)
 
     def at(self, k):
-        built = self.built
-        t = self.integ.t[k]
+        """The effects' node loads {body: (N, 6) [N, N m]} at output time k (kept)."""
         q_all, qd_all = self.Q[k], self.QD[k]
-        frames = (self.frames[0][k], self.frames[1][k])
-        built.frame_cache.hold(q_all, qd_all, frames)       # the effects' frames at this state
-        _, applied = built.loads(t, q_all, qd_all)
-        self.q_all, self.applied = q_all, {n: np.array(v) for n, v in applied.items()}
-        self.pos = {n: ps.kinematics(frames, q_all, qd_all)[0] for n, ps in self.sets.items()}
-        self.R, self.origin = frames[0], frames[1][:, 0]
-        v, w = {}, {}
-        for sign, (Q, QD) in self.moved.items():
-            moved = (self.moved_frames[sign][0][k], self.moved_frames[sign][1][k])
-            v[sign] = {n: ps.kinematics(moved, Q[k], QD[k])[1] for n, ps in self.sets.items()}
-            w[sign] = moved[1][:, 1]
-        self.acc = {n: (v[1.0][n] - v[-1.0][n]) / (2.0 * STEP) for n in self.sets}
-        self.origin_acc = (w[1.0] - w[-1.0]) / (2.0 * STEP)
-        return self
+        self.built.frame_cache.hold(q_all, qd_all, (self.frames[0][k], self.frames[1][k]))   # the effects' frames
+        _, applied = self.built.loads(self.integ.t[k], q_all, qd_all)
+        return {name: np.array(v) for name, v in applied.items()}
 
 
 def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bearing, tips=()) -> dict:
@@ -173,9 +170,9 @@ def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bea
     `tower_gauges` (gauge numbers), and the tip channels of blades `tips`
     (module doc) at the output times of `integ`; accelerations: {free
     coordinate: qdd}; yaw_bearing: the YAW_BEARING_LOADS histories [kN, kN m]
-    (for the tower's). One pass over the output times gathers what each
-    time needs from the effects and the kinematics (`collect`); the
-    channels follow for all times at once (`channels`)."""
+    (for the tower's). The motions come for all times at once (`_States`);
+    one pass over the output times gathers the effects' loads where a gauge
+    needs them (`collect`); the channels follow for all times at once (`channels`)."""
     eq = built.eq
     n = len(integ.t)
     sets = {f"blade{b}": PointSet.of_body(eq, f"blade{b}") for b in blade_gauges}
@@ -186,16 +183,15 @@ def gauge_loads(built, integ, accelerations, blade_gauges, tower_gauges, yaw_bea
     states = _States(built, integ, accelerations, sets)
     aero = built.effect("aero")
     aero = aero if aero is not None and hasattr(aero, "augmented") else None
-    parts = ([_BladeGauges(built, blade_gauges, aero, n)] if blade_gauges else []) + \
-        ([_TowerGauges(built, tower_gauges, yaw_bearing, n)] if tower_gauges else []) + \
-        ([_Tips(built, tips, n)] if tips else [])
-    for k in range(n):
-        st = states.at(k)
-        for part in parts:
-            part.collect(st, k)
+    loaded = ([_BladeGauges(built, blade_gauges, aero, n)] if blade_gauges else []) + \
+        ([_TowerGauges(built, tower_gauges, yaw_bearing, n)] if tower_gauges else [])
+    for k in range(n if loaded else 0):
+        applied = states.at(k)
+        for part in loaded:
+            part.collect(applied, k)
     out = {}
-    for part in parts:
-        out.update(part.channels())
+    for part in loaded + ([_Tips(built, tips)] if tips else []):
+        out.update(part.channels(states))
     return out
 
 
@@ -259,7 +255,7 @@ def _slope_angles(slope, qe) -> tuple:
 class _Tips:
     """The blade tips' channels (module doc)."""
 
-    def __init__(self, built, blades, n):
+    def __init__(self, built, blades):
         self.built, self.blades = built, blades
         model, eq = built.model, built.eq
         turbine = model.turbine
@@ -273,27 +269,19 @@ class _Tips:
                      {b: model.station_slopes(f"blade{b}", np.array([last]))[0] for b in blades})
         self.tip_slope = {b: model.station_slopes(f"blade{b}", np.array([blade.length]))[0] for b in blades}
         self.nacelle = eq.body_index["nacelle"]      # its origin is the tower top (ElastoDyn's point O)
-        self.R = {b: np.empty((n, 3, 3)) for b in blades}
-        self.qe = {b: np.empty((n, len(self.idx[b]))) for b in blades}
-        self.acc, self.pos = ({b: np.empty((n, 3)) for b in blades} for _ in range(2))
-        self.R_n, self.r_top = np.empty((n, 3, 3)), np.empty((n, 3))
 
-    def collect(self, st, k):
-        self.R_n[k], self.r_top[k] = st.R[self.nacelle], st.origin[self.nacelle]
-        for b in self.blades:
-            self.R[b][k], self.qe[b][k] = st.R[self.index[b]], st.q_all[self.idx[b]]
-            self.acc[b][k], self.pos[b][k] = st.acc[f"tip{b}"][0], st.pos[f"tip{b}"][0]
-
-    def channels(self):
+    def channels(self, st):
         out = {}
+        R_n, r_top = st.R[:, self.nacelle], st.origin[:, self.nacelle]
         for b in self.blades:
-            axes, _, _ = _section_axes(self.R[b], self.last[0], self.last[1][b], self.qe[b])
-            theta_ip, theta_oop = _slope_angles(self.tip_slope[b], self.qe[b])
-            al, alg = _rows(axes, self.acc[b]), _rows(axes, self.acc[b] - self.gravity)
+            qe, acc, pos = st.Q[:, self.idx[b]], st.acc[f"tip{b}"][:, 0], st.pos[f"tip{b}"][:, 0]
+            axes, _, _ = _section_axes(st.R[:, self.index[b]], self.last[0], self.last[1][b], qe)
+            theta_ip, theta_oop = _slope_angles(self.tip_slope[b], qe)
+            al, alg = _rows(axes, acc), _rows(axes, acc - self.gravity)
             for i, a in enumerate("xyz"):
                 out[f"TipAL{a}b{b}"], out[f"TipALg{a}b{b}"] = al[:, i], alg[:, i]
             out[f"TipRDxb{b}"], out[f"TipRDyb{b}"] = np.degrees(theta_ip), np.degrees(theta_oop)
-            x, y, z = np.einsum("kji,kj->ik", self.R_n, self.pos[b] - self.r_top)      # R_n^T (tip - top)
+            x, y, z = np.einsum("kji,kj->ik", R_n, pos - r_top)      # R_n^T (tip - top)
             out[f"TipClrnc{b}"] = np.where(z > 0.0, np.sqrt(x * x + y * y + z * z), np.hypot(x, y))
         return out
 
@@ -317,39 +305,38 @@ class _BladeGauges:
         self.twist = {b: np.interp(ps[b].s0[:self.nodes, 2], blade.span - blade.span[0], blade.twist)
                       for b in gauges}
         self.span = {b: ps[b].s0[:self.nodes, 2] for b in gauges}         # ElastoDyn's RNodes from the root
-        size = {b: len(self.mass[b]) for b in gauges}
-        self.load = {b: np.zeros((n, size[b], 6)) for b in gauges}
-        self.pos, self.acc = ({b: np.empty((n, size[b], 3)) for b in gauges} for _ in range(2))
-        self.R = {b: np.empty((n, 3, 3)) for b in gauges}
-        self.origin = {b: np.empty((n, 3)) for b in gauges}
-        self.qe = {b: np.empty((n, len(self.idx[b]))) for b in gauges}
+        self.load = {b: np.zeros((n, len(self.mass[b]), 6)) for b in gauges}
+        # with AeroDyn: its line loads at each time (`BladeAerodynamics.line_state`)
+        self.line = None if aero is None else [np.empty((n,) + a.shape) for a in aero.line_state()]
 
-    def collect(self, st, k):
+    def collect(self, applied, k):
+        if self.aero is not None:
+            for keep, now in zip(self.line, self.aero.line_state()):
+                keep[k] = now
+            return
         for b in self.gauges:
-            name = f"blade{b}"
-            pos = st.pos[name]
-            applied = (self.aero.openfast_node_loads(b - 1, pos[:self.nodes]) if self.aero is not None
-                       else st.applied.get(name))
-            if applied is not None:
-                self.load[b][k, :len(applied), :applied.shape[1]] = applied
-            self.pos[b][k], self.acc[b][k] = pos, st.acc[name]
-            self.R[b][k], self.origin[b][k] = st.R[self.index[b]], st.origin[self.index[b]]
-            self.qe[b][k] = st.q_all[self.idx[b]]
+            f = applied.get(f"blade{b}")
+            if f is not None:
+                self.load[b][k, :len(f), :f.shape[1]] = f
 
-    def channels(self):
+    def channels(self, st):
         out = {}
         for b, gs in self.gauges.items():
-            load, pos, acc, R = self.load[b].copy(), self.pos[b], self.acc[b], self.R[b]     # the applied loads kept
+            name = f"blade{b}"
+            load, pos, acc, R = self.load[b].copy(), st.pos[name], st.acc[name], st.R[:, self.index[b]]
+            if self.aero is not None:
+                load[:, :self.nodes] = self.aero.openfast_node_loads(b - 1, pos[:, :self.nodes], self.line)
             load[:, :, :3] += self.mass[b][None, :, None] * (self.gravity - acc)
             j3 = R[:, :, 2]
+            qe = st.Q[:, self.idx[b]]
             for i in gs:
                 g = self.built.model.turbine.blade_gauges[i - 1] - 1
-                axes, theta_ip, theta_oop = _section_axes(R, self.twist[b][g], self.slopes[b][g], self.qe[b])
+                axes, theta_ip, theta_oop = _section_axes(R, self.twist[b][g], self.slopes[b][g], qe)
                 f, m = _section(load, pos, g, np.arange(g + 1, load.shape[1]), 0.25 * self.dr * j3, axes)
                 # motions: the node's displacement from its undeflected place in the pitched
                 # frame (TD), its slopes' rotation (RD: ThetaIP, ThetaOoP), its acceleration
                 # in the section's axes, without and with gravity's (AL, ALg: a - g)
-                moved = pos[:, g] - self.origin[b] - self.span[b][g] * j3
+                moved = pos[:, g] - st.origin[:, self.index[b]] - self.span[b][g] * j3
                 values = {"FL": f, "ML": m, "TD": np.einsum("kji,kj->ki", R, moved),     # R^T moved
                           "AL": _rows(axes, acc[:, g]), "ALg": _rows(axes, acc[:, g] - self.gravity),
                           "RD": np.degrees(np.column_stack([theta_ip, theta_oop, np.zeros(len(R))]))}
@@ -395,47 +382,42 @@ class _TowerGauges:
             if dofs:
                 self.slope[fld] = (model.shapes[fld](x).dphi / turbine.tower.length, [eq.index[d] for d in dofs])
         self.load = np.zeros((n, self.nodes, 6))
-        self.pos, self.acc = np.empty((n, self.nodes, 3)), np.empty((n, self.nodes, 3))
-        self.R_p, self.r_top, self.top_acc, self.origin = (np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)),
-                                                          np.empty((n, 3)))
-        self.q_all = np.empty((n, eq.n_all))
 
-    def _angle(self, fld, g):
-        if fld not in self.slope:
-            return np.zeros(len(self.q_all))
-        slope, idx = self.slope[fld]
-        return self.q_all[:, idx] @ slope[:, g]
+    @staticmethod
+    def _angle(slope, q_all, g):
+        if slope is None:
+            return np.zeros(len(q_all))
+        shape, idx = slope
+        return q_all[:, idx] @ shape[:, g]
 
-    def collect(self, st, k):
-        n = self.nodes
-        applied = st.applied.get("tower")
-        if applied is not None:
-            self.load[k, :, :applied.shape[1]] = applied[:n]
-        self.pos[k], self.acc[k] = st.pos["tower"][:n], st.acc["tower"][:n]
-        self.R_p[k], self.r_top[k], self.top_acc[k] = st.R[self.top], st.origin[self.top], st.origin_acc[self.top]
-        self.origin[k], self.q_all[k] = st.origin[self.root], st.q_all
+    def collect(self, applied, k):
+        f = applied.get("tower")
+        if f is not None:
+            self.load[k, :, :f.shape[1]] = f[:self.nodes]
 
-    def channels(self):
+    def channels(self, st):
         turbine = self.built.model.turbine
-        load, pos, n = self.load.copy(), self.pos, self.nodes          # the applied loads kept
-        load[:, :, :3] += self.mass[None, :, None] * (self.gravity - self.acc)
-        f_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[:3]]) * 1e3)
-        m_top = _rows(self.R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[3:]]) * 1e3)
-        f_top = f_top + turbine.yaw_bearing_mass * (self.gravity - self.top_acc)
+        n = self.nodes
+        load, pos, acc = self.load.copy(), st.pos["tower"][:, :n], st.acc["tower"][:, :n]     # the applied loads kept
+        R_p, r_top, origin = st.R[:, self.top], st.origin[:, self.top], st.origin[:, self.root]
+        load[:, :, :3] += self.mass[None, :, None] * (self.gravity - acc)
+        f_top = _rows(R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[:3]]) * 1e3)
+        m_top = _rows(R_p, np.column_stack([self.yaw_bearing[c] for c in YAW_BEARING_LOADS[3:]]) * 1e3)
+        f_top = f_top + turbine.yaw_bearing_mass * (self.gravity - st.origin_acc[:, self.top])
         arm = np.broadcast_to(0.25 * self.dh * self.base[1], (len(load), 3))
         out = {}
         for i in self.gauges:
             g = turbine.tower_gauges[i - 1] - 1
-            theta_fa, theta_ss = -self._angle("tower_fa", g), self._angle("tower_ss", g)
+            theta_fa = -self._angle(self.slope.get("tower_fa"), st.Q, g)
+            theta_ss = self._angle(self.slope.get("tower_ss"), st.Q, g)
             t = small_rotation(theta_ss, np.zeros_like(theta_ss), theta_fa) @ self.base
             axes = np.stack([t[:, 0], -t[:, 2], t[:, 1]], axis=1)   # FLxt = F . t1, FLyt = -F . t3, FLzt = F . t2
             f, m = _section(load, pos, g, np.arange(g + 1, n), arm, axes,
-                            f_top, cross(self.r_top - pos[:, g], f_top) + m_top)
+                            f_top, cross(r_top - pos[:, g], f_top) + m_top)
             # motions (ElastoDyn's rTPT on a1, -a3, a2; AngPosXF: ThetaSS, -ThetaFA; LinAccET on t)
-            moved = pos[:, g] - self.origin - self.height[g] * self.base[1]
-            acc = self.acc[:, g]
+            moved = pos[:, g] - origin - self.height[g] * self.base[1]
             values = {"FL": f, "ML": m, "TD": moved @ self.base[[0, 2, 1]].T * np.array([1.0, -1.0, 1.0]),
-                      "AL": _rows(axes, acc), "ALg": _rows(axes, acc - self.gravity),
+                      "AL": _rows(axes, acc[:, g]), "ALg": _rows(axes, acc[:, g] - self.gravity),
                       "RD": np.degrees(np.column_stack([theta_ss, -theta_fa, np.zeros(len(load))]))}
             for q, a in GAUGE_QUANTITIES:
                 out[f"TwHt{i}{q}{a}t"] = values[q][:, "xyz".index(a)]

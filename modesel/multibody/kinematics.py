@@ -37,15 +37,16 @@ def deformed_nodes(s0, Phi, S, axis, qe, qde):
     B_loc = ds/dq_e (N,3,ne) and the acceleration at qdd_e = 0,
     -(qd_e^T S_k qd_e) e_axis (N,3), of a flexible body with nodes s0 (N,3),
     shapes Phi (N,3,ne), shortening matrices S (N,ne,ne) (None: none) along
-    `axis`, at elastic state (qe, qde) (first paper D4)."""
-    s = s0 + Phi @ qe
-    B_loc = Phi.copy()
-    acc_loc = np.zeros_like(s0)
+    `axis`, at elastic state (qe, qde) (first paper D4). For n states at
+    once, qe and qde (n, ne): every result then has the leading axis n."""
+    s = s0 + np.einsum("mil,...l->...mi", Phi, qe)
+    B_loc = np.broadcast_to(Phi, s.shape[:-2] + Phi.shape).copy()
+    acc_loc = np.zeros_like(s)
     if S is not None:
-        Sq = S @ qe                                   # (N, ne)
-        s = s - 0.5 * (Sq @ qe)[:, None] * axis
-        B_loc = B_loc - axis[None, :, None] * Sq[:, None, :]
-        acc_loc = -np.einsum("kij,i,j->k", S, qde, qde)[:, None] * axis
+        Sq = np.einsum("mlj,...j->...ml", S, qe)                   # (..., N, ne)
+        s = s - 0.5 * np.einsum("...ml,...l->...m", Sq, qe)[..., None] * axis
+        B_loc = B_loc - axis[:, None] * Sq[..., None, :]
+        acc_loc = -np.einsum("mij,...i,...j->...m", S, qde, qde)[..., None] * axis
     return s, B_loc, acc_loc
 
 
@@ -53,12 +54,13 @@ def node_kinematics(R, r, v, w, s0, Phi, S, axis, qe, qde):
     """Inertial positions (N,3) [m] and velocities (N,3) [m/s] of a
     flexible body's nodes, and their body-frame positions s (N,3), for a
     body frame with rotation R, origin r, velocity v and angular velocity w
-    (see `deformed_nodes` for the rest)."""
+    (see `deformed_nodes` for the rest). For n states at once, R (n,3,3),
+    r, v, w (n,3) and qe, qde (n,ne): every result then has the leading axis n."""
     s, B_loc, _ = deformed_nodes(s0, Phi, S, axis, qe, qde)
-    p = s @ R.T
-    B = np.einsum("ij,kjl->kil", R, B_loc)
-    vel = v + cross(w, p) + B @ qde
-    return r + p, vel, s
+    p = np.einsum("...ij,...mj->...mi", R, s)
+    sd = np.einsum("...mil,...l->...mi", B_loc, qde)              # ds/dt in the body frame
+    vel = v[..., None, :] + cross(w[..., None, :], p) + np.einsum("...ij,...mj->...mi", R, sd)
+    return r[..., None, :] + p, vel, s
 
 
 class FrameKinematics:
@@ -130,6 +132,16 @@ class PointSet:
         vel = np.empty((M, 3)) if vel is None else vel
         points(R[self.body], vec[self.body], self.s0, self.Phi, self.S, self.axis,
                q_all[self.idx], qd_all[self.idx], pos, vel)
+        return pos, vel
+
+    def along(self, frames, Q, QD):
+        """Inertial positions and velocities (n, M, 3) of the points at each of
+        n states (rows of Q, QD (n, n_all)), for the frames `FrameKinematics.along`
+        gives at them: the numpy reference (`node_kinematics`) at every state at once."""
+        R, vec = frames
+        b = self.body
+        pos, vel, _ = node_kinematics(R[:, b], vec[:, b, 0], vec[:, b, 1], vec[:, b, 2], self.s0, self.Phi, self.S,
+                                      self.axis, Q[:, self.idx], QD[:, self.idx])
         return pos, vel
 
 

@@ -252,28 +252,39 @@ class BladeAerodynamics(Effect):
         self.last = {"q": q_all, "qd": qd_all, "v_dot_x": float(self.vrel @ R[self.hub][:, 0]), "tsr": tsr,
                      "skew": float(self.skew[0, 0]), "rmax": float(self.r.max())}
 
-    def openfast_node_loads(self, b, node_pos):
-        """(N, 6) forces [N] and moments about the nodes [N m] (inertial) that
-        OpenFAST hands ElastoDyn's nodes of blade b (positions `node_pos` (N, 3))
-        for this effect's last call, on ElastoDyn's nodes only: the line loads
-        and pitching moments interpolated to the augmented line
-        (`_augmented_line`), lumped per element as ModMesh_Mapping
-        Lump_Line2_to_Point lumps them (F_1 += h (2 f_1 + f_2) / 6, end moments
-        +-(h/12) dp x (f_1 + f_2), dp the displaced element), each point's load
-        moved to its nearest node with the moment of its offset. The section
-        loads of the strain gauges (model/gauges.py) sum these, as ElastoDyn does."""
+    def line_state(self) -> tuple:
+        """This effect's last call's line loads and where they act, as
+        `openfast_node_loads` takes them: (f_n, f_t, c_m, e_n, e_t, pos), the
+        normal and tangential loads f_n, f_t [N/m] and the pitching moment c_m
+        [N m/m] (B, M), their directions e_n, e_t and the AeroDyn nodes'
+        positions pos [m] (B, M, 3) (buffers: overwritten at the next call)."""
+        cm = self.cm_scale * self.bem.buffers.out[11].reshape(self.r.shape)
+        return self.bem.buffers.f_n, self.bem.buffers.f_t, cm, self.en, self.et, self.pos
+
+    def openfast_node_loads(self, b, node_pos, line):
+        """(n, N, 6) forces [N] and moments about the nodes [N m] (inertial)
+        that OpenFAST hands ElastoDyn's nodes of blade b at n times, from the
+        line states `line` (`line_state()`'s arrays with a leading axis of the n
+        times) and the nodes' positions `node_pos` (n, N, 3) then, on ElastoDyn's
+        nodes only: the line loads and pitching moments interpolated to the
+        augmented line (`_augmented_line`), lumped per element as
+        ModMesh_Mapping Lump_Line2_to_Point lumps them (F_1 += h (2 f_1 + f_2) / 6,
+        end moments +-(h/12) dp x (f_1 + f_2), dp the displaced element), each
+        point's load moved to its nearest node with the moment of its offset.
+        The section loads of the strain gauges (model/gauges.py) sum these, as
+        ElastoDyn does."""
         interp, near, h, lumping = self.augmented
-        fn, ft = self.bem.buffers.f_n[b], self.bem.buffers.f_t[b]
-        line = fn[:, None] * self.en[b] + ft[:, None] * self.et[b]                   # [N/m]
-        pitching = (self.cm_scale * self.bem.buffers.out[11].reshape(self.r.shape)[b])[:, None] \
-            * cross(self.et[b], self.en[b])                                         # [N m/m]
-        f, r = interp @ line, interp @ self.pos[b]
-        force, moment = lumping @ line, lumping @ pitching          # lumping = L I (`_line2_lumping`)
-        end = (h / 12.0)[:, None] * cross(r[1:] - r[:-1], f[1:] + f[:-1])
-        moment[:-1] += end
-        moment[1:] -= end
-        out = np.zeros((len(node_pos), 6))
-        np.add.at(out, near, np.hstack([force, moment + cross(r - node_pos[near], force)]))
+        fn, ft, cm, en, et, pos = (a[:, b] for a in line)
+        load = fn[..., None] * en + ft[..., None] * et                              # [N/m]
+        pitching = cm[..., None] * cross(et, en)                                    # [N m/m]
+        f, r = interp @ load, interp @ pos
+        force, moment = lumping @ load, lumping @ pitching          # lumping = L I (`_line2_lumping`)
+        end = (h / 12.0)[:, None] * cross(r[:, 1:] - r[:, :-1], f[:, 1:] + f[:, :-1])
+        moment[:, :-1] += end
+        moment[:, 1:] -= end
+        out = np.zeros(node_pos.shape[:2] + (6,))
+        np.add.at(out, (slice(None), near), np.concatenate([force, moment + cross(r - node_pos[:, near], force)],
+                                                           axis=-1))
         return out
 
     def load_points(self, built):
