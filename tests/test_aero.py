@@ -99,6 +99,39 @@ def test_polar_lookup_matches_file_rows(deck):
         np.testing.assert_allclose(c, [polar.cl[:-1], polar.cd[:-1], polar.cm[:-1]], atol=1e-12)
 
 
+def test_airfoil_files_openfast_io_cannot_read_are_read_by_keyword(tmp_path):
+    """AirfoilInfo (OpenFAST 5.0) takes files without the optional BL_file line
+    and with inline shape coordinates (NumCoords > 0); openfast-io's positional
+    reader takes neither, so those are read by keyword (`airfoils._keyword_table`).
+    The keyword reader gives every bundled table exactly as openfast-io does;
+    the r-test's AOC files (no BL_file) and a copy with 3 coordinate rows read
+    the same table."""
+    from modesel.aero import airfoils
+    from modesel.aero.airfoils import read_polars
+    common = os.path.join(HERE, "..", "studies", "data", "openfast", "common", "Airfoils")
+    names = sorted(os.listdir(common))
+    bundled = read_polars([os.path.join(common, n) for n in names])
+    for name, polar in zip(names, bundled.polars):
+        path = os.path.join(common, name)
+        assert airfoils._positional_layout(path)
+        alpha, cl, cd, cm = airfoils._keyword_table(path, (1, 2, 3, 4))
+        assert np.array_equal(alpha, polar.alpha) and np.array_equal(cl, polar.cl)
+        assert np.array_equal(cd, polar.cd) and np.array_equal(cm, polar.cm)
+    aoc = os.path.join(HERE, "data", "openfast_more", "AOC", "Airfoils", "S814_1.dat")
+    assert not airfoils._positional_layout(aoc)
+    text = open(aoc).read()
+    coords = tmp_path / "S814_1_coords.dat"
+    coords.write_text(text.replace("          0   NumCoords", "          3   NumCoords", 1).replace(
+        "          1   NumTabs", "  0.25 0.0\n  1.0 0.0\n  0.0 0.0\n\"unused\" BL_file\n          1   NumTabs", 1))
+    a, b = read_polars([aoc], (1, 2, 3, 0)), read_polars([str(coords)], (1, 2, 3, 0))
+    assert len(a.polars[0].alpha) == 53 and a.polars[0].cl[0] == 0.137 and a.polars[0].cd[0] == 0.0547
+    assert np.array_equal(a.polars[0].cl, b.polars[0].cl) and np.array_equal(a.polars[0].cd, b.polars[0].cd)
+    short = tmp_path / "short.dat"
+    short.write_text(text.replace("         53   NumAlf", "         54   NumAlf", 1).split("   180.0")[0])
+    with pytest.raises(ModeselError, match=r"short\.dat: NumAlf: the table has fewer than NumAlf = 54 rows"):
+        read_polars([str(short)], (1, 2, 3, 0))
+
+
 def test_polar_lookup_equals_np_interp(deck):
     """The compiled lookup on the common grid (`PolarSet.coefficients`) gives
     each airfoil's np.interp on its own file rows (the numpy reference,

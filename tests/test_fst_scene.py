@@ -103,6 +103,44 @@ def test_pitch_is_held_at_pitneut_not_blpitch(tmp_path):
     assert any("PitNeut" in n for n in scene.notes)
 
 
+def test_aoa34_is_accepted_as_aerodyn_5_ignores_it(tmp_path):
+    """AeroDyn 5.0 reads AoA34 (default True) and uses it in no computation
+    without unsteady aerodynamics: OpenFAST wrote identical channels for
+    steady_08 with True and False (10 s). modesel refused True before."""
+    fst = copy_case(tmp_path)
+    before = load_scene(fst)
+    edit(fst.parent.parent / "common" / "NREL5MW_AD_v5.dat", "AoA34", "True")
+    assert load_scene(fst).effects == before.effects
+
+
+def test_thevenin_generator_is_read_and_checked(tmp_path):
+    """ServoDyn's GenModel 2: the eight TEC_ inputs as the generator's options,
+    checked as ServoDyn checks them (an odd pole count is refused); its law's
+    compiled twin gives the same torque and power."""
+    from modesel.model.effects.generator import LAWS, switched_torque
+    fst = copy_case(tmp_path)
+    sd_file = fst.parent / "steady_08_ServoDyn.dat"
+    edit(sd_file, "VSContrl", "0")
+    edit(sd_file, "GenModel", "2")
+    for label, value in (("TEC_Freq", "60"), ("TEC_NPol", "4"), ("TEC_SRes", "0.0492"), ("TEC_RRes", "0.000534"),
+                         ("TEC_VLL", "480"), ("TEC_SLR", "0.0001"), ("TEC_RLR", "0.0001"), ("TEC_MR", "0.00449")):
+        edit(sd_file, label, value)          # the r-test's AOC generator (tests/data/openfast_more/aoc_thevenin)
+    gen = load_scene(fst).effects["generator"]
+    assert gen["mode"] == "thevenin" and gen["poles"] == 4 and gen["line_voltage"] == pytest.approx(480.0)
+    constants = servodyn.thevenin_constants(*(gen[k] for k in servodyn.THEVENIN_INPUTS.values()))
+    lp, sw = np.zeros(11), np.array([0.944, 0.0, np.nan, np.nan, 0.0, 1.0])
+    lp[:] = constants
+    for w in (150.0, constants[0], 200.0):      # motoring, synchronous (no torque), generating
+        T, P = servodyn.thevenin_torque_power(w, *constants)
+        assert switched_torque(1.0, w, LAWS["thevenin"], lp, sw, np.zeros(2)) == pytest.approx((T, P), rel=1e-14)
+        assert np.sign(T) == np.sign(w - constants[0])
+        assert P < T * w + 1e-9 * abs(T * w)        # the circuit's losses
+    edit(sd_file, "TEC_NPol", "3")
+    with pytest.raises(ModeselError, match=r"steady_08_ServoDyn\.dat: TEC_NPol: must be an even number greater than "
+                                           r"zero, got 3"):
+        load_scene(fst)
+
+
 def test_tmax_option_overrides_the_fst():
     result = simulate(load_scene(STEADY_08), tmax=0.1)
     assert result.outputs.Time.iloc[-1] == pytest.approx(0.1)

@@ -15,7 +15,12 @@ function is unchanged when breakpoints are added). Angles are wrapped to
 constant beyond their ends (np.interp clamping).
 
 Files are read with openfast-io (`InputReader_OpenFAST.read_AeroDynPolar`),
-first table of each file (AeroDyn AFTabMod = 1).
+first table of each file (AeroDyn AFTabMod = 1). That reader is positional
+and expects a `BL_file` line and no inline shape coordinates; AirfoilInfo
+(OpenFAST 5.0's AirfoilInfo.f90) takes files without the optional BL_file
+line and with NumCoords > 0 coordinate rows (as the r-test's AOC airfoils),
+so such files are read by keyword instead (`_keyword_table`: the first
+NumAlf rows after the first NumAlf line).
 """
 from __future__ import annotations
 
@@ -141,6 +146,43 @@ def _lookup_many(alpha, offset, grid, value, slope):
     return out
 
 
+def _input_lines(path) -> list:
+    """The tokens of each line of an OpenFAST input file that is not blank or a
+    comment ('!' first, as OpenFAST's ProcessComFile drops them)."""
+    with open(path, errors="replace") as fh:
+        return [line.split() for line in fh if line.strip() and not line.lstrip().startswith("!")]
+
+
+def _positional_layout(path) -> bool:
+    """Whether openfast-io's positional reader takes the airfoil file `path`:
+    a BL_file line and NumCoords 0 (module doc)."""
+    lines = _input_lines(path)
+    labels = {t[1].lower(): t[0] for t in lines[:8] if len(t) > 1}
+    try:
+        return "bl_file" in labels and int(float(labels.get("numcoords", "0"))) == 0
+    except ValueError:
+        return False
+
+
+def _keyword_table(path, columns) -> tuple:
+    """(alpha [rad], Cl, Cd, Cm) of the first table of AirfoilInfo file `path`
+    read by keyword (module doc): the NumAlf rows after its first NumAlf line,
+    columns as `read_polars` takes them."""
+    lines = _input_lines(path)
+    width = max(columns)
+    for k, tokens in enumerate(lines):
+        if len(tokens) > 1 and tokens[1].lower() == "numalf":
+            n = int(tokens[0])
+            rows = [row[:width] for row in lines[k + 1:k + 1 + n]]
+            if n < 1 or len(rows) < n or any(len(row) < width for row in rows):
+                raise ModeselError(f"the table has fewer than NumAlf = {n} rows of {width} columns", file=path,
+                                   field="NumAlf")
+            table = np.array(rows, dtype=float)
+            cm = table[:, columns[3] - 1] if columns[3] > 0 else np.zeros(n)
+            return np.radians(table[:, columns[0] - 1]), table[:, columns[1] - 1], table[:, columns[2] - 1], cm
+    raise ModeselError("no NumAlf line (the length of the airfoil table)", file=path, field="NumAlf")
+
+
 def read_polars(paths, columns=(1, 2, 3, 4)) -> PolarSet:
     """Read AeroDyn airfoil files (first table each) with openfast-io.
 
@@ -164,13 +206,16 @@ def read_polars(paths, columns=(1, 2, 3, 4)) -> PolarSet:
         ad["AFNames"] = [path]
         ad["NumAFfiles"] = 1
         try:
-            reader.read_AeroDynPolar()
-            table = ad["af_data"][0][0]
-            alpha = np.radians(np.asarray(table["Alpha"], float))
-            cl = np.asarray(table["Cl"], float)
-            cd = np.asarray(table["Cd"], float)
-            cm = (np.asarray(table["Cm"], float) if columns[3] > 0
-                  else np.zeros_like(alpha))
+            if _positional_layout(path):
+                reader.read_AeroDynPolar()
+                table = ad["af_data"][0][0]
+                alpha = np.radians(np.asarray(table["Alpha"], float))
+                cl = np.asarray(table["Cl"], float)
+                cd = np.asarray(table["Cd"], float)
+                cm = (np.asarray(table["Cm"], float) if columns[3] > 0
+                      else np.zeros_like(alpha))
+            else:
+                alpha, cl, cd, cm = _keyword_table(path, columns)
         except ModeselError:
             raise
         except Exception as exc:  # openfast-io raises bare ValueError/IndexError

@@ -6,7 +6,9 @@ Channels (units as OpenFAST writes them):
   coordinate (ElastoDyn's DOF channels: Q_TFA1, Q_TSS1, Q_B1F1, Q_B1E1,
   Q_DrTr ...; Q_GeAz in ElastoDyn's convention, the rotor azimuth minus
   90 deg in [0, 2 pi)); Azimuth [deg, 0-360) of blade 1; RotSpeed [rpm];
-  GenSpeed [rpm]; TTDspFA, TTDspSS [m] tower-top displacement (SS = -Q_TSS,
+  GenSpeed [rpm]; LSSGagPxa [deg, 0-360) and LSSGagVxa [rpm], the
+  shaft's azimuth and speed at its strain gauge (GeAz, the generator's side of
+  the drivetrain spring); TTDspFA, TTDspSS [m] tower-top displacement (SS = -Q_TSS,
   positive along +y); TTDspTwst [deg]; TipDxc<b> = OoPDefl<b>, TipDyc<b> =
   IPDefl<b>, TipDzc<b> [m] blade-tip deflection in the coned frame and
   TipDxb<b>, TipDyb<b> [m] in the pitched blade frame (`tip_deflections`:
@@ -66,7 +68,7 @@ from modesel.vocabulary import FIELD_PREFIX, RIGID_DOFS, dof_unit, parse_dof
 #: units of the channels (OpenFAST's); <b> stands for a blade number. A
 #: coordinate's Q_<dof> / QD_<dof> take its unit (vocabulary.dof_unit).
 CHANNEL_UNITS = {
-    "Time": "s", "Azimuth": "deg", "RotSpeed": "rpm", "GenSpeed": "rpm",
+    "Time": "s", "Azimuth": "deg", "RotSpeed": "rpm", "GenSpeed": "rpm", "LSSGagPxa": "deg", "LSSGagVxa": "rpm",
     "TTDspFA": "m", "TTDspSS": "m", "TTDspTwst": "deg", "OoPDefl<b>": "m", "IPDefl<b>": "m",
     "TipDxc<b>": "m", "TipDyc<b>": "m", "TipDzc<b>": "m", "TipDxb<b>": "m", "TipDyb<b>": "m",
     "PtfmSurge": "m", "PtfmPitch": "deg", "NacYaw": "deg", "BldPitch<b>": "deg",
@@ -113,6 +115,7 @@ CHANNEL_ALIASES = {
     "RtAeroFxh": ("RtFldFxh",), "RtAeroFyh": ("RtFldFyh",), "RtAeroFzh": ("RtFldFzh",),
     "RtAeroMxh": ("RtFldMxh",), "RtAeroMyh": ("RtFldMyh",), "RtAeroMzh": ("RtFldMzh",),
     "LSSTipAxa": ("LSSTipA", "LSSTipAxs"), "LSSGagAxa": ("LSSGagA", "LSSGagAxs"),
+    "LSSGagPxa": ("LSSGagP", "LSSGagPxs"), "LSSGagVxa": ("LSSGagV", "LSSGagVxs"),
     "TipClrnc<b>": ("TwrClrnc<b>", "Tip2Twr<b>"),
     "LSShftFya": ("LSSGagFya",), "LSShftFza": ("LSSGagFza",), "LSShftFys": ("LSSGagFys",),
     "LSShftFzs": ("LSSGagFzs",),
@@ -384,6 +387,10 @@ def channels(built, integ, wanted=None):
     data["Azimuth"] = np.mod(np.rad2deg(az), 360.0)
     data["RotSpeed"] = (ged + dtd) * 30.0 / np.pi
     data["GenSpeed"] = ged * model.turbine.gearbox_ratio * 30.0 / np.pi
+    # the shaft at its strain gauge, the generator's side of the drivetrain spring (ElastoDyn's
+    # LSSGagPxa = GeAz + 90 deg, which modesel's GeAz includes; LSSGagVxa = GeAz')
+    data["LSSGagPxa"] = np.mod(np.rad2deg(ge), 360.0)
+    data["LSSGagVxa"] = ged * 30.0 / np.pi
     fa = model.field_dofs.get("tower_fa", ())
     ss = model.field_dofs.get("tower_ss", ())
     tw = model.field_dofs.get("tower_torsion", ())

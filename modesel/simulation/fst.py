@@ -12,8 +12,8 @@ What the case's modules become:
   and, with TwrAero, `tower_drag` (on the aero effect's deck and air
   density); AirDens "default" takes the .fst AirDens.
 - ServoDyn (CompServo = 1, `turbine.servodyn.read_servodyn`) -> the `generator`
-  effect (ServoDyn's simple variable-speed law or induction generator,
-  GenEff, on/off switching) and the pitch held at PitNeut; without
+  effect (ServoDyn's simple variable-speed law, simple or
+  Thevenin-equivalent induction generator, GenEff, on/off switching) and the pitch held at PitNeut; without
   ServoDyn the generator torque is zero and the pitch stays at BlPitch.
   With YawDOF on, ServoDyn's yaw spring and damper about YawNeut (YCMode 0)
   are the `yaw` effect; without ServoDyn the yaw turns freely, as in OpenFAST.

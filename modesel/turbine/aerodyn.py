@@ -274,8 +274,7 @@ def aerodyn_case_options(path) -> dict:
       dynamic BEMT DBEMT_Mod > 0 with Wake_Mod 1, OLAF), BEM_Mod 2 (polar),
       skew correction other than none / Pitt-Peters (Skew_Mod -1, SkewMod 3,
       SkewMomCorr), sector averaging (SectAvg);
-    - unsteady airfoil aerodynamics (UA_Mod > 0 / AFAeroMod 2), AoA34
-      (angle of attack at 3/4 chord);
+    - unsteady airfoil aerodynamics (UA_Mod > 0 / AFAeroMod 2);
     - tower potential flow (TwrPotent) or shadow (TwrShadow), cavitation,
       buoyancy, nacelle drag, tail fin, aeroacoustics.
 
@@ -286,7 +285,10 @@ def aerodyn_case_options(path) -> dict:
     relative wind normal to the tower). TipLoss, HubLoss, TanInd, AIDrag,
     TIDrag, SkewRedistrFactor and the polars are read by `read_aerodyn`.
     UseBlCm -> the sectional pitching moment (`AeroDynDeck.pitching_moment`,
-    applied by the aero effect as node moments).
+    applied by the aero effect as node moments). AoA34 (angle of attack at
+    the 3/4 chord, default True) is accepted either way: AeroDyn 5.0 reads it
+    (AeroDyn_IO.f90) and no computation uses it without unsteady aerodynamics
+    (OpenFAST 5.0 writes the same outputs for steady_08 with True and False).
     """
     from modesel.turbine.openfast_inputs import InputFile
     f = InputFile(path, "AeroDyn")
@@ -313,8 +315,6 @@ def aerodyn_case_options(path) -> dict:
         skew = skew_mod == 1 and redistr == 1
         if "SectAvg" in f and f.flag("SectAvg"):
             raise f.unsupported("SectAvg", "sector averaging")
-        if "AoA34" in f and f.flag("AoA34", default=True):
-            raise f.unsupported("AoA34", "angle of attack sampled at the 3/4 chord")
     else:
         if f.integer("AFAeroMod") != 1:
             raise f.unsupported("AFAeroMod", "unsteady airfoil aerodynamics")

@@ -22,6 +22,23 @@ percent -> fraction):
   s_po = SIG_PORt (rated speed - SIG_SySp), slope SIG_RtTq / (rated speed -
   SIG_SySp): T = slope s for |s| <= s_po, else sign(s) SIG_RtTq SIG_PORt.
   P = T w GenEff when T >= 0 (generating), T w / GenEff when motoring.
+- Thevenin-equivalent induction generator, VSContrl = 0 with GenModel = 2
+  (ServoDyn's SrvD_Init constants and CalculateTorque): from the stator
+  and rotor resistances R_s = TEC_SRes, R_r = TEC_RRes [ohm], leakage
+  reactances X_s = TEC_SLR, X_r = TEC_RLR and magnetising reactance
+  X_m = TEC_MR [ohm], line-to-line voltage V = TEC_VLL [V], line frequency
+  f = TEC_Freq [Hz] and pole count p = TEC_NPol, with D = R_s^2 + (X_s + X_m)^2:
+  R_e = R_s X_m^2 / D, X_e = X_m (R_s^2 + X_s (X_s + X_m)) / D,
+  V_1 = X_m V / sqrt(3 D), w_sync = 4 pi f / p, and the slip ratio
+  s = (w - w_sync) / w_sync,
+
+      T = A s / (C0 + C1 s + C2 s^2),   A = R_r X_m^2 V^2 / (D w_sync),
+      C0 = R_r^2,  C1 = -2 R_e R_r,  C2 = R_e^2 + (X_e + X_r)^2;
+
+  the rotor current I_2 = V_1 s (s R_e - R_r - j s (X_e + X_r)) / D_2,
+  D_2 = (s R_e - R_r)^2 + s^2 (X_e + X_r)^2, the stator current
+  I_1 = I_2 - j V_1 / X_m, and P = T w - 3 |I_1|^2 R_s - 3 |I_2|^2 R_r
+  (GenEff is not used).
 
 On/off (Torque_UpdateStates): the generator is on line from TimGenOn
 (GenTiStr = True) or from the first time w >= SpdGenOn (False); it goes
@@ -69,6 +86,32 @@ def induction_torque(w, sync_speed, slope, pullout_slip, pullout_torque):
     if abs(s) > pullout_slip:
         return math.copysign(pullout_torque, s)
     return s * slope
+
+
+def thevenin_constants(frequency, poles, r_stator, r_rotor, voltage, x_stator, x_rotor, x_magnetizing):
+    """The 11 constants of `thevenin_torque_power` (module doc; SI units):
+    (w_sync, A, C0, C1, C2, R_e, X_e + X_r, V_1, R_r, R_s, X_m)."""
+    d = r_stator**2 + (x_stator + x_magnetizing)**2
+    r_e = r_stator * x_magnetizing**2 / d
+    x_e = x_magnetizing * (r_stator**2 + x_stator * (x_stator + x_magnetizing)) / d
+    v_1 = x_magnetizing * voltage / math.sqrt(3.0 * d)
+    w_sync = 4.0 * math.pi * frequency / poles
+    a = r_rotor * x_magnetizing**2 / d / w_sync * voltage**2
+    return (w_sync, a, r_rotor**2, -2.0 * r_e * r_rotor, r_e**2 + (x_e + x_rotor)**2, r_e, x_e + x_rotor, v_1,
+            r_rotor, r_stator, x_magnetizing)
+
+
+def thevenin_torque_power(w, w_sync, a, c0, c1, c2, r_e, x, v_1, r_rotor, r_stator, x_magnetizing):
+    """ServoDyn's Thevenin-equivalent induction generator (module doc): torque
+    [N m] and electrical power [W] at HSS speed w [rad/s]."""
+    s = (w - w_sync) / w_sync
+    torque = a * s / (c0 + c1 * s + c2 * s * s)
+    d = (s * r_e - r_rotor)**2 + (s * x)**2
+    i2_re = v_1 * s * (s * r_e - r_rotor) / d
+    i2_im = -v_1 * s * s * x / d
+    i1_im = i2_im - v_1 / x_magnetizing
+    loss = 3.0 * (i2_re**2 + i1_im**2) * r_stator + 3.0 * (i2_re**2 + i2_im**2) * r_rotor
+    return torque, torque * w - loss
 
 
 def electrical_power(torque, w, efficiency):
@@ -130,8 +173,12 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
         if gen["region2_k"] * gen["rated_speed_rpm"]**2 > gen["rated_torque"]:
             raise f.error("VS_Rgn2K*VS_RtGnSp^2 must not be greater than VS_RtTq", "VS_Rgn2K")
     elif vs == 0:
-        if f.integer("GenModel") != 1:
-            raise f.unsupported("GenModel", "only the simple induction generator (1) is modelled")
+        model = f.integer("GenModel")
+        if model not in (1, 2):
+            raise f.unsupported("GenModel", "only the simple (1) and Thevenin-equivalent (2) induction generators "
+                                            "are modelled")
+        if model == 2:
+            return {"generator": dict(_thevenin(f), **switching), "pitch_deg": pit_neut, "yaw": yaw}
         gen = {"mode": "induction", "sync_speed_rpm": f.number("SIG_SySp"),
                "rated_torque": f.number("SIG_RtTq"), "slip_percent": f.number("SIG_SlPc"),
                "pullout_ratio": f.number("SIG_PORt")}
@@ -145,3 +192,22 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
         raise f.unsupported("VSContrl", "only 0 (generator model) and 1 (simple variable speed) are modelled")
     gen.update(switching)
     return {"generator": gen, "pitch_deg": pit_neut, "yaw": yaw}
+
+
+#: the Thevenin generator's ServoDyn inputs and the `generator` effect's options
+THEVENIN_INPUTS = {"TEC_Freq": "line_frequency_hz", "TEC_NPol": "poles", "TEC_SRes": "stator_resistance",
+                   "TEC_RRes": "rotor_resistance", "TEC_VLL": "line_voltage", "TEC_SLR": "stator_reactance",
+                   "TEC_RLR": "rotor_reactance", "TEC_MR": "magnetizing_reactance"}
+
+
+def _thevenin(f) -> dict:
+    """The `generator` effect's options of a Thevenin generator (GenModel = 2),
+    checked as ServoDyn checks them (SrvD ValidatePrimaryData)."""
+    gen = {"mode": "thevenin"}
+    for label, key in THEVENIN_INPUTS.items():
+        value = f.integer(label) if label == "TEC_NPol" else f.number(label)
+        if value <= 0 or (label == "TEC_NPol" and value % 2):
+            raise f.error(f"must be {'an even number ' if label == 'TEC_NPol' else ''}greater than zero, got "
+                          f"{value:g}", label)
+        gen[key] = value
+    return gen

@@ -31,7 +31,7 @@ from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import N_PARAMS, wind_params
 from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
                                         rotor_loads, rotor_power, station_rotations)
-from modesel.model.effects.generator import switched_torque
+from modesel.model.effects.generator import LAW_PARAMETERS, switched_torque
 from modesel.multibody.kernel import LOADS_SIG
 from modesel.multibody.kinematics import points
 
@@ -296,8 +296,8 @@ def _generator(t, ints, p, floats, state, qd_all, gen):
     """Generator torque on GeAz (effects/generator.py)."""
     i, law, o_f, o_s = ints[p], ints[p + 1], ints[p + 2], ints[p + 3]
     ratio = floats[o_f]
-    lp = floats[o_f + 1:o_f + 7]
-    sw = floats[o_f + 7:o_f + 13]
+    lp = floats[o_f + 1:o_f + 1 + LAW_PARAMETERS]
+    sw = floats[o_f + 1 + LAW_PARAMETERS:o_f + 7 + LAW_PARAMETERS]
     latch = state[o_s:o_s + 2]
     T, P = switched_torque(t, ratio * qd_all[i], law, lp, sw, latch)
     gen[i] -= ratio * T

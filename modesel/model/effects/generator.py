@@ -1,7 +1,7 @@
 """Generator torque on the high-speed shaft.
 
     [effects.generator]
-    mode = "variable_speed"     # | "constant" | "locked" | "simple_variable_speed" | "induction"
+    mode = "variable_speed"     # | "constant" | "locked" | "simple_variable_speed" | "induction" | "thevenin"
     torque = 43093.55           # N m on the HSS (mode "constant")
     efficiency = 0.944          # electrical efficiency for GenPwr
 
@@ -19,11 +19,22 @@ ServoDyn's laws (`modesel.turbine.servodyn`, which documents them):
     slip_percent = 1.0               # SIG_SlPc
     pullout_ratio = 2.0              # SIG_PORt
 
-and, for these two modes, ServoDyn's switching: `on_time` (TimGenOn, s;
+    mode = "thevenin"                # VSContrl = 0, GenModel = 2
+    line_frequency_hz = 60.0         # TEC_Freq
+    poles = 4                        # TEC_NPol
+    stator_resistance = 0.0185       # TEC_SRes [ohm]
+    rotor_resistance = 0.017         # TEC_RRes [ohm]
+    line_voltage = 480.0             # TEC_VLL [V]
+    stator_reactance = 0.0747        # TEC_SLR [ohm]
+    rotor_reactance = 0.0747         # TEC_RLR [ohm]
+    magnetizing_reactance = 2.5      # TEC_MR [ohm]
+
+and, for these three modes, ServoDyn's switching: `on_time` (TimGenOn, s;
 default 0) or `on_speed_rpm` (SpdGenOn, HSS), `off_time` (TimGenOf, s),
 `off_when_no_power` (GenTiStp = False: off for good once the electrical
 power is <= 0). Their power is ServoDyn's (efficiency subtracts when
-generating, adds when motoring). The speed and power switches latch at the
+generating, adds when motoring; the Thevenin generator's, its circuit's
+losses, without `efficiency`). The speed and power switches latch at the
 first right-hand side that meets them (an integrator stage that is later
 rejected can latch them a step early).
 
@@ -91,7 +102,8 @@ class Generator(Effect):
     CHANNELS = ("GenTq", "GenPwr")
     OPTIONS = {
         "mode": Option("choice", "variable_speed", "torque law",
-                       choices=("variable_speed", "constant", "locked", "simple_variable_speed", "induction")),
+                       choices=("variable_speed", "constant", "locked", "simple_variable_speed", "induction",
+                                "thevenin")),
         "torque": Option("number", None, "constant HSS torque [N m]"),
         "efficiency": Option("number", EFFICIENCY, "generator efficiency [-]", positive=True),
         "rated_speed_rpm": Option("number", None, "VS_RtGnSp [rpm]", positive=True),
@@ -100,13 +112,22 @@ class Generator(Effect):
         "slip_percent": Option("number", None, "VS_SlPc / SIG_SlPc [%]", nonnegative=True),
         "sync_speed_rpm": Option("number", None, "SIG_SySp [rpm]", positive=True),
         "pullout_ratio": Option("number", None, "SIG_PORt [-]", positive=True),
+        "line_frequency_hz": Option("number", None, "TEC_Freq [Hz]", positive=True),
+        "poles": Option("number", None, "TEC_NPol [-] (even)", positive=True),
+        "stator_resistance": Option("number", None, "TEC_SRes [ohm]", positive=True),
+        "rotor_resistance": Option("number", None, "TEC_RRes [ohm]", positive=True),
+        "line_voltage": Option("number", None, "TEC_VLL [V]", positive=True),
+        "stator_reactance": Option("number", None, "TEC_SLR [ohm]", positive=True),
+        "rotor_reactance": Option("number", None, "TEC_RLR [ohm]", positive=True),
+        "magnetizing_reactance": Option("number", None, "TEC_MR [ohm]", positive=True),
         "on_time": Option("number", None, "TimGenOn [s]", nonnegative=True),
         "on_speed_rpm": Option("number", None, "SpdGenOn [rpm] (HSS)"),
         "off_time": Option("number", None, "TimGenOf [s]", nonnegative=True),
         "off_when_no_power": Option("bool", False, "GenTiStp = False"),
     }
     SERVODYN = {"simple_variable_speed": ("rated_speed_rpm", "rated_torque", "region2_k", "slip_percent"),
-                "induction": ("sync_speed_rpm", "rated_torque", "slip_percent", "pullout_ratio")}
+                "induction": ("sync_speed_rpm", "rated_torque", "slip_percent", "pullout_ratio"),
+                "thevenin": tuple(_sd.THEVENIN_INPUTS.values())}
     SWITCHING = ("on_time", "on_speed_rpm", "off_time", "off_when_no_power")
 
     def __init__(self, scene, options):
@@ -138,6 +159,13 @@ class Generator(Effect):
             self.law = (sd.induction_torque, (sync, options["rated_torque"] / (rated - sync),
                                               options["pullout_ratio"] * (rated - sync),
                                               options["rated_torque"] * options["pullout_ratio"]))
+        elif mode == "thevenin":
+            if options["poles"] % 2:
+                raise self.error(f"must be an even number, got {options['poles']:g}", "poles")
+            self.law = (_sd.thevenin_torque_power, _sd.thevenin_constants(
+                *(options[k] for k in ("line_frequency_hz", "poles", "stator_resistance", "rotor_resistance",
+                                       "line_voltage", "stator_reactance", "rotor_reactance",
+                                       "magnetizing_reactance"))))
         self.online_latched = False
         self.off_latched = False
 
@@ -175,8 +203,11 @@ class Generator(Effect):
         elif t < (o["on_time"] or 0.0):
             return 0.0, 0.0
         law, args = self.law
-        T = law(w, *args)
-        P = electrical_power(T, w, o["efficiency"])
+        if o["mode"] == "thevenin":
+            T, P = law(w, *args)
+        else:
+            T = law(w, *args)
+            P = electrical_power(T, w, o["efficiency"])
         if o["off_when_no_power"] and P <= 0.0:
             self.off_latched = True
             return 0.0, 0.0
@@ -212,12 +243,12 @@ class Generator(Effect):
         packer.set_state(o_s, [float(self.online_latched), float(self.off_latched)])
 
     def compiled_parameters(self):
-        """(law code, law parameters (6,), switches (6,)) of `switched_torque`
+        """(law code, law parameters (LAW_PARAMETERS,), switches (6,)) of `switched_torque`
         for this effect's options (module doc; nan: switch not given)."""
         o = self.options
         mode = o["mode"]
         law = LAWS[mode]
-        lp = np.zeros(6)
+        lp = np.zeros(LAW_PARAMETERS)
         if mode == "constant":
             lp[0] = o["torque"]
         elif mode in self.SERVODYN:
@@ -231,10 +262,13 @@ class Generator(Effect):
 
 
 #: law codes of `switched_torque`
-LAWS = {"constant": 0, "variable_speed": 1, "simple_variable_speed": 2, "induction": 3}
+LAWS = {"constant": 0, "variable_speed": 1, "simple_variable_speed": 2, "induction": 3, "thevenin": 4}
+#: the length of a law's parameters (the Thevenin generator's 11, `servodyn.thevenin_constants`)
+LAW_PARAMETERS = 11
 _variable_speed_torque = njit(cache=True)(variable_speed_torque)
 _simple_vs_torque = njit(cache=True)(_sd.simple_vs_torque)
 _induction_torque = njit(cache=True)(_sd.induction_torque)
+_thevenin_torque_power = njit(cache=True)(_sd.thevenin_torque_power)
 _electrical_power = njit(cache=True)(_sd.electrical_power)
 
 
@@ -243,18 +277,22 @@ def switched_torque(t, w, law, lp, sw, latch):
     """Compiled twin of `Generator.__call__`'s torque and power (T [N m],
     P [W]) at time t [s] and HSS speed w [rad/s]: law (`LAWS`) with
     parameters lp (constant: torque; ServoDyn laws: their arguments after
-    w), sw = (efficiency, on_time, on_speed_rpm, off_time,
+    w; the Thevenin generator's power is its own, not from the efficiency), sw = (efficiency, on_time, on_speed_rpm, off_time,
     off_when_no_power, ServoDyn switching on) with nan for a switch not
     given, latch = (on-speed latched, off latched), updated in place. The
     laws themselves are the same functions as the Python path's, compiled."""
+    P = 0.0
     if law == 0:
         T = lp[0]
     elif law == 1:
         T = _variable_speed_torque(w)
     elif law == 2:
         T = _simple_vs_torque(w, lp[0], lp[1], lp[2], lp[3], lp[4], lp[5])
-    else:
+    elif law == 3:
         T = _induction_torque(w, lp[0], lp[1], lp[2], lp[3])
+    else:
+        T, P = _thevenin_torque_power(w, lp[0], lp[1], lp[2], lp[3], lp[4], lp[5], lp[6], lp[7], lp[8], lp[9],
+                                      lp[10])
     if sw[5] == 0.0:
         return T, T * w * sw[0]
     if not np.isnan(sw[3]) and t >= sw[3]:
@@ -268,7 +306,8 @@ def switched_torque(t, w, law, lp, sw, latch):
             return 0.0, 0.0
     elif t < (0.0 if np.isnan(sw[1]) else sw[1]):
         return 0.0, 0.0
-    P = _electrical_power(T, w, sw[0])
+    if law != 4:
+        P = _electrical_power(T, w, sw[0])
     if sw[4] != 0.0 and P <= 0.0:
         latch[1] = 1.0
         return 0.0, 0.0
