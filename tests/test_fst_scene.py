@@ -235,6 +235,7 @@ UNSUPPORTED = [
     ("steady_08.fst", "CompMooring", "3", "mooring"),
     ("steady_08_ElastoDyn.dat", "PitchDOF", "True", "pitch DOF"),
     ("steady_08_ElastoDyn.dat", "GBoxEff", "95.0", "gearbox losses"),
+    ("steady_08_ElastoDyn.dat", "Furling", "True", "furling"),
     ("steady_08_ServoDyn.dat", "PCMode", "5", "pitch control"),
     ("steady_08_ServoDyn.dat", "VSContrl", "5", "simple variable speed"),
     ("steady_08_ServoDyn.dat", "HSSBrMode", "1", "HSS brake"),

@@ -42,7 +42,7 @@ Anything switched on that modesel does not model is a one-line
 `ModeselError` naming the file and the input: BeamDyn or simplified
 ElastoDyn (CompElast 2, 3), external inflow, AeroDisk or external loads,
 SeaState, HydroDyn, SubDyn, moorings, ice, soil, MHK, mirrored or several
-rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, a gearbox
+rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, furling, a gearbox
 efficiency below 100 % (GBoxEff), AzimB1Up, and the options listed in the
 InflowWind, AeroDyn and ServoDyn readers.
 """

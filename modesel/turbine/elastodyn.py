@@ -199,6 +199,9 @@ def read_elastodyn(path) -> Turbine:
                   "YawDOF", "TwFADOF1", "TwFADOF2", "TwSSDOF1", "TwSSDOF2", "PtfmSgDOF",
                   "PtfmSwDOF", "PtfmHvDOF", "PtfmRDOF", "PtfmPDOF", "PtfmYDOF")
     dofs = {label: _flag(ed, label, ed_deck) for label in dof_labels if label in ed_deck.found}
+    if "Furling" in ed_deck.found and ed_deck.value("Furling").strip('"').lower() in ("true", "t"):
+        raise ModeselError("unsupported: rotor and tail furling (FurlFile) is not modelled (set Furling to False)",
+                           file=str(ed_deck.path), field="Furling")
     initial = {
         "OoPDefl": num("OoPDefl", "OoPDefl"), "IPDefl": num("IPDefl", "IPDefl"),
         "BlPitch": tuple(deg(num(f"BlPitch{k}", f"BlPitch({k})")) for k in per_blade),
