@@ -286,6 +286,26 @@ def test_compiled_kinematics_equal_numpy_reference(rated):
         np.testing.assert_allclose(vel, v_ref, atol=1e-10)
 
 
+def test_point_motions_at_many_states_equal_the_compiled_points(rated):
+    """`PointSet.along` (the numpy reference with a leading axis of states, the
+    gauge pass's) gives at each of three states what the compiled `points`
+    gives at that state alone."""
+    from modesel.multibody.kinematics import PointSet
+    b, q, qd = rated
+    states = [state_at(b, t, s * q, s * qd) for t, s in ((0.0, 1.0), (0.3, 0.5), (1.1, -0.7))]
+    Q, QD = np.array([s[0] for s in states]), np.array([s[1] for s in states])
+    frames = b.frame_cache.along(Q, QD)
+    for name in ("tower", "blade1", "blade3"):
+        ps = PointSet.of_body(b.eq, name)
+        pos, vel = ps.along(frames, Q, QD)
+        assert pos.shape == vel.shape == (3, len(ps.s0), 3)
+        for k in range(3):
+            p1, v1 = ps.kinematics((frames[0][k], frames[1][k]), Q[k], QD[k])
+            np.testing.assert_allclose(pos[k], p1, rtol=0, atol=1e-10)
+            np.testing.assert_allclose(vel[k], v1, rtol=0, atol=1e-10)
+        assert np.ptp(pos[:, -1], axis=0).max() > 1e-3 and np.ptp(vel[:, -1], axis=0).max() > 1e-3   # they differ
+
+
 def test_station_shapes_agree_with_nodes(rated):
     """The AeroDyn stations' shapes are the blade's own fields: at the node
     spans they reproduce the node shapes and shortening."""

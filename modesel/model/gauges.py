@@ -58,9 +58,10 @@ else its distance from the yaw axis (the nacelle frame's x and y).
 The accelerations are those of the solved equations: a_j = dv_j/dt along the
 state's own motion, (v_j(q + h qd, qd + h qdd) - v_j(q - h qd, qd - h qdd)) /
 2h, h = 1e-5 s (exact to O(h^2)). Written where the blade is integrated on
-ElastoDyn's nodes (an OpenFAST case's): one evaluation of the effects per
-output time, the frames at the three states of every output time in three
-compiled calls, the sums and projections for all times at once.
+ElastoDyn's nodes (an OpenFAST case's): the frames at the three states of
+every output time in three compiled calls, the points' motions, sums and
+projections for all times at once, and one evaluation of the effects per
+output time where a gauge needs loads.
 """
 from __future__ import annotations
 

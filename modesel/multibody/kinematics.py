@@ -11,9 +11,10 @@ eq. 3), body frame (s, B_loc) and inertial axes (p, v_p):
     v_p    = v + w x (R s) + R B_loc qd_e
 
 `deformed_nodes` and `node_kinematics` are the numpy reference (used by
-`KaneEquations`); `points` is their compiled twin (numba), used through
-`PointSet` on the quadrature nodes or other stations such as the AeroDyn
-nodes. tests/test_turbine.py holds the two equal.
+`KaneEquations`, and by `PointSet.along` for many states at once: they take
+a leading axis of states); `points` is their compiled twin (numba), used
+through `PointSet` on the quadrature nodes or other stations such as the
+AeroDyn nodes. tests/test_turbine.py holds the two equal.
 
 `FrameKinematics(eq)(q_all, qd_all)` returns every body frame's rotation R
 and origin position r, velocity v, angular velocity w (inertial axes),
