@@ -488,3 +488,14 @@ def test_thevenin_generator_on_the_aoc_turbine_matches_openfast():
     assert np.abs(T / 1e3 - on.GenTq).max() <= 5e-4 * np.abs(on.GenTq).max()
     assert np.abs(P / 1e3 - on.GenPwr).max() <= 5e-4 * np.abs(on.GenPwr).max()
     assert (on.GenTq < 0).any() and (on.GenTq > 0).any()      # motoring and generating both met
+
+
+def test_elastodyn_other_names_of_the_shaft_accelerations_and_tip_rotations():
+    """ElastoDyn's OutList names RotAccel (= LSSTipAxa), GenAccel (= HSShftA),
+    RollDefl<b> (= TipRDxb<b>) and PtchDefl<b> (= TipRDyb<b>) (ElastoDyn.f90
+    ValidParamAry/ParamIndxAry); modesel listed them as not computed."""
+    scene = load_scene(DATA / "strain_gauges" / "strain_gauges.fst")
+    pairs = {"RotAccel": "LSSTipAxa", "GenAccel": "HSShftA", "RollDefl1": "TipRDxb1", "PtchDefl2": "TipRDyb2"}
+    out = simulate(scene, tmax=1.0, channels=[*pairs, *pairs.values()]).outputs
+    for alias, name in pairs.items():
+        assert np.array_equal(out[alias].to_numpy(), out[name].to_numpy()) and np.ptp(out[name]) > 0, alias
