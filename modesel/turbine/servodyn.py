@@ -194,7 +194,8 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
     return {"generator": gen, "pitch_deg": pit_neut, "yaw": yaw}
 
 
-#: the Thevenin generator's ServoDyn inputs and the `generator` effect's options
+#: the Thevenin generator's ServoDyn inputs and the `generator` effect's options, in the order of
+#: `thevenin_constants`' arguments
 THEVENIN_INPUTS = {"TEC_Freq": "line_frequency_hz", "TEC_NPol": "poles", "TEC_SRes": "stator_resistance",
                    "TEC_RRes": "rotor_resistance", "TEC_VLL": "line_voltage", "TEC_SLR": "stator_reactance",
                    "TEC_RLR": "rotor_reactance", "TEC_MR": "magnetizing_reactance"}

@@ -19,15 +19,15 @@ ServoDyn's laws (`modesel.turbine.servodyn`, which documents them):
     slip_percent = 1.0               # SIG_SlPc
     pullout_ratio = 2.0              # SIG_PORt
 
-    mode = "thevenin"                # VSContrl = 0, GenModel = 2
-    line_frequency_hz = 60.0         # TEC_Freq
+    mode = "thevenin"                # VSContrl = 0, GenModel = 2 (here the AOC 15/50's,
+    line_frequency_hz = 60.0         # TEC_Freq                      OpenFAST r-test AOC_WSt)
     poles = 4                        # TEC_NPol
-    stator_resistance = 0.0185       # TEC_SRes [ohm]
-    rotor_resistance = 0.017         # TEC_RRes [ohm]
+    stator_resistance = 0.0492       # TEC_SRes [ohm]
+    rotor_resistance = 0.000534      # TEC_RRes [ohm]
     line_voltage = 480.0             # TEC_VLL [V]
-    stator_reactance = 0.0747        # TEC_SLR [ohm]
-    rotor_reactance = 0.0747         # TEC_RLR [ohm]
-    magnetizing_reactance = 2.5      # TEC_MR [ohm]
+    stator_reactance = 0.0001        # TEC_SLR [ohm]
+    rotor_reactance = 0.0001         # TEC_RLR [ohm]
+    magnetizing_reactance = 0.00449  # TEC_MR [ohm]
 
 and, for these three modes, ServoDyn's switching: `on_time` (TimGenOn, s;
 default 0) or `on_speed_rpm` (SpdGenOn, HSS), `off_time` (TimGenOf, s),
@@ -162,10 +162,8 @@ class Generator(Effect):
         elif mode == "thevenin":
             if options["poles"] % 2:
                 raise self.error(f"must be an even number, got {options['poles']:g}", "poles")
-            self.law = (_sd.thevenin_torque_power, _sd.thevenin_constants(
-                *(options[k] for k in ("line_frequency_hz", "poles", "stator_resistance", "rotor_resistance",
-                                       "line_voltage", "stator_reactance", "rotor_reactance",
-                                       "magnetizing_reactance"))))
+            self.law = (_sd.thevenin_torque_power,
+                        _sd.thevenin_constants(*(options[k] for k in _sd.THEVENIN_INPUTS.values())))
         self.online_latched = False
         self.off_latched = False
 
@@ -277,7 +275,8 @@ def switched_torque(t, w, law, lp, sw, latch):
     """Compiled twin of `Generator.__call__`'s torque and power (T [N m],
     P [W]) at time t [s] and HSS speed w [rad/s]: law (`LAWS`) with
     parameters lp (constant: torque; ServoDyn laws: their arguments after
-    w; the Thevenin generator's power is its own, not from the efficiency), sw = (efficiency, on_time, on_speed_rpm, off_time,
+    w; the Thevenin generator's power is its own, not from the efficiency),
+    sw = (efficiency, on_time, on_speed_rpm, off_time,
     off_when_no_power, ServoDyn switching on) with nan for a switch not
     given, latch = (on-speed latched, off latched), updated in place. The
     laws themselves are the same functions as the Python path's, compiled."""
