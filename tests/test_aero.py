@@ -113,12 +113,13 @@ def test_airfoil_files_openfast_io_cannot_read_are_read_by_keyword(tmp_path):
     bundled = read_polars([os.path.join(common, n) for n in names])
     for name, polar in zip(names, bundled.polars):
         path = os.path.join(common, name)
-        assert airfoils._positional_layout(path)
-        alpha, cl, cd, cm = airfoils._keyword_table(path, (1, 2, 3, 4))
+        lines = airfoils._input_lines(path)
+        assert airfoils._positional_layout(lines)
+        alpha, cl, cd, cm = airfoils._keyword_table(path, lines, (1, 2, 3, 4))
         assert np.array_equal(alpha, polar.alpha) and np.array_equal(cl, polar.cl)
         assert np.array_equal(cd, polar.cd) and np.array_equal(cm, polar.cm)
     aoc = os.path.join(HERE, "data", "openfast_more", "AOC", "Airfoils", "S814_1.dat")
-    assert not airfoils._positional_layout(aoc)
+    assert not airfoils._positional_layout(airfoils._input_lines(aoc))
     text = open(aoc).read()
     coords = tmp_path / "S814_1_coords.dat"
     coords.write_text(text.replace("          0   NumCoords", "          3   NumCoords", 1).replace(

@@ -153,10 +153,9 @@ def _input_lines(path) -> list:
         return [line.split() for line in fh if line.strip() and not line.lstrip().startswith("!")]
 
 
-def _positional_layout(path) -> bool:
-    """Whether openfast-io's positional reader takes the airfoil file `path`:
-    a BL_file line and NumCoords 0 (module doc)."""
-    lines = _input_lines(path)
+def _positional_layout(lines) -> bool:
+    """Whether openfast-io's positional reader takes an airfoil file of
+    `lines` (`_input_lines`): a BL_file line and NumCoords 0 (module doc)."""
     labels = {t[1].lower(): t[0] for t in lines[:8] if len(t) > 1}
     try:
         return "bl_file" in labels and int(float(labels.get("numcoords", "0"))) == 0
@@ -164,11 +163,10 @@ def _positional_layout(path) -> bool:
         return False
 
 
-def _keyword_table(path, columns) -> tuple:
+def _keyword_table(path, lines, columns) -> tuple:
     """(alpha [rad], Cl, Cd, Cm) of the first table of AirfoilInfo file `path`
-    read by keyword (module doc): the NumAlf rows after its first NumAlf line,
-    columns as `read_polars` takes them."""
-    lines = _input_lines(path)
+    of `lines` (`_input_lines`) read by keyword (module doc): the NumAlf rows
+    after its first NumAlf line, columns as `read_polars` takes them."""
     width = max(columns)
     for k, tokens in enumerate(lines):
         if len(tokens) > 1 and tokens[1].lower() == "numalf":
@@ -206,7 +204,8 @@ def read_polars(paths, columns=(1, 2, 3, 4)) -> PolarSet:
         ad["AFNames"] = [path]
         ad["NumAFfiles"] = 1
         try:
-            if _positional_layout(path):
+            lines = _input_lines(path)
+            if _positional_layout(lines):
                 reader.read_AeroDynPolar()
                 table = ad["af_data"][0][0]
                 alpha = np.radians(np.asarray(table["Alpha"], float))
@@ -215,7 +214,7 @@ def read_polars(paths, columns=(1, 2, 3, 4)) -> PolarSet:
                 cm = (np.asarray(table["Cm"], float) if columns[3] > 0
                       else np.zeros_like(alpha))
             else:
-                alpha, cl, cd, cm = _keyword_table(path, columns)
+                alpha, cl, cd, cm = _keyword_table(path, lines, columns)
         except ModeselError:
             raise
         except Exception as exc:  # openfast-io raises bare ValueError/IndexError

@@ -199,7 +199,7 @@ def read_elastodyn(path) -> Turbine:
                   "YawDOF", "TwFADOF1", "TwFADOF2", "TwSSDOF1", "TwSSDOF2", "PtfmSgDOF",
                   "PtfmSwDOF", "PtfmHvDOF", "PtfmRDOF", "PtfmPDOF", "PtfmYDOF")
     dofs = {label: _flag(ed, label, ed_deck) for label in dof_labels if label in ed_deck.found}
-    if "Furling" in ed_deck.found and ed_deck.value("Furling").strip('"').lower() in ("true", "t"):
+    if "Furling" in ed_deck.found and _flag(ed, "Furling", ed_deck):
         raise ModeselError("unsupported: rotor and tail furling (FurlFile) is not modelled (set Furling to False)",
                            file=str(ed_deck.path), field="Furling")
     initial = {

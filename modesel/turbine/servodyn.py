@@ -177,17 +177,7 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
         if model not in (1, 2):
             raise f.unsupported("GenModel", "only the simple (1) and Thevenin-equivalent (2) induction generators "
                                             "are modelled")
-        if model == 2:
-            return {"generator": dict(_thevenin(f), **switching), "pitch_deg": pit_neut, "yaw": yaw}
-        gen = {"mode": "induction", "sync_speed_rpm": f.number("SIG_SySp"),
-               "rated_torque": f.number("SIG_RtTq"), "slip_percent": f.number("SIG_SlPc"),
-               "pullout_ratio": f.number("SIG_PORt")}
-        for label, key in (("SIG_SlPc", "slip_percent"), ("SIG_SySp", "sync_speed_rpm"),
-                           ("SIG_RtTq", "rated_torque")):
-            if gen[key] <= 0:
-                raise f.error(f"must be greater than zero, got {gen[key]:g}", label)
-        if gen["pullout_ratio"] < 1:
-            raise f.error(f"must not be less than 1, got {gen['pullout_ratio']:g}", "SIG_PORt")
+        gen = _thevenin(f) if model == 2 else _induction(f)
     else:
         raise f.unsupported("VSContrl", "only 0 (generator model) and 1 (simple variable speed) are modelled")
     gen.update(switching)
@@ -199,6 +189,21 @@ def read_servodyn(path, tmax: float, yaw_dof: bool = False) -> dict:
 THEVENIN_INPUTS = {"TEC_Freq": "line_frequency_hz", "TEC_NPol": "poles", "TEC_SRes": "stator_resistance",
                    "TEC_RRes": "rotor_resistance", "TEC_VLL": "line_voltage", "TEC_SLR": "stator_reactance",
                    "TEC_RLR": "rotor_reactance", "TEC_MR": "magnetizing_reactance"}
+
+
+def _induction(f) -> dict:
+    """The `generator` effect's options of a simple induction generator
+    (GenModel = 1), checked as ServoDyn checks them."""
+    gen = {"mode": "induction", "sync_speed_rpm": f.number("SIG_SySp"),
+           "rated_torque": f.number("SIG_RtTq"), "slip_percent": f.number("SIG_SlPc"),
+           "pullout_ratio": f.number("SIG_PORt")}
+    for label, key in (("SIG_SlPc", "slip_percent"), ("SIG_SySp", "sync_speed_rpm"),
+                       ("SIG_RtTq", "rated_torque")):
+        if gen[key] <= 0:
+            raise f.error(f"must be greater than zero, got {gen[key]:g}", label)
+    if gen["pullout_ratio"] < 1:
+        raise f.error(f"must not be less than 1, got {gen['pullout_ratio']:g}", "SIG_PORt")
+    return gen
 
 
 def _thevenin(f) -> dict:
