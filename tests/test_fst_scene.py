@@ -245,8 +245,8 @@ UNSUPPORTED = [
     ("../common/NREL5MW_AD_v5.dat", "UA_Mod", "3", "unsteady airfoil"),
     ("../common/NREL5MW_AD_v5.dat", "DBEMT_Mod", "1", "dynamic inflow"),
     ("../common/NREL5MW_AD_v5.dat", "Wake_Mod", "3", "quasi-steady BEMT"),
-    ("../common/NREL5MW_AD_v5.dat", "TwrShadow", "1", "tower shadow"),
-    ("../common/NREL5MW_AD_v5.dat", "TwrPotent", "1", "tower potential flow"),
+    ("../common/NREL5MW_AD_v5.dat", "TwrShadow", "3", "only 0, 1 = Powles and 2 = Eames"),
+    ("../common/NREL5MW_AD_v5.dat", "TwrPotent", "3", "only 0, 1 = baseline and 2 = Bak"),
     ("../common/NREL5MW_AD_v5.dat", "BEM_Mod", "2", "legacy BEM"),
 ]
 

@@ -203,8 +203,9 @@ def blade_inflow(rng):
                 direction=rng.uniform(-0.5, 0.5))
     vn, vt, skew, psi, theta, r_local, ratio = (np.empty((B, M)) for _ in range(7))
     en, et, vrel = np.empty((B, M, 3)), np.empty((B, M, 3)), np.empty(3)
-    tsr = inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, rotation, A, wind.params(0.0), vn, vt, skew, psi,
-                 en, et, theta, r_local, ratio, vrel)
+    dist = rng.normal(0.0, 1.0, (B, M, 3))                           # the tower's influence [m/s]
+    tsr = inflow(R, vec, 0, np.arange(1, B + 1), pos, vel, rotation, A, wind.params(0.0), dist, vn, vt, skew,
+                 psi, en, et, theta, r_local, ratio, vrel)
     xs, zb = R[0, :, 0], R[1:, :, 2]
     e_c = unit(xs - (zb @ xs)[:, None] * zb)                       # coned normal
     e_t = np.cross(e_c, zb)
@@ -219,7 +220,7 @@ def blade_inflow(rng):
             section = ref @ Rotation.from_quat(quat).as_matrix().T          # change of basis, rows: axes
             euler[b, k] = Rotation.from_matrix(section.T).as_euler("XYZ")
     e_n = np.cos(euler[..., 1])[..., None] * e_c[:, None, :] - np.sin(euler[..., 1])[..., None] * zb[:, None, :]
-    v_rel = wind.vector(pos[..., 2], 0.0, pos[..., 0], pos[..., 1]) - vel
+    v_rel = wind.vector(pos[..., 2], 0.0, pos[..., 0], pos[..., 1]) + dist - vel
     radial = unit(zb - (zb @ xs)[:, None] * xs)
     disk = v_rel.reshape(-1, 3).mean(axis=0)
     chi0, psi_ref = skew_angles(disk, xs, radial)
@@ -393,6 +394,9 @@ LOAD_SCENES = [
     ("ElastoDyn blade nodes (aero's generalised-force correction)",
      {"wind": {"speed": 10.0, "shear": 0.2}, "aero": True, "elastodyn_nodes": True,
       "generator": {"mode": "variable_speed"}}, None, 3, (0.3, 1.6)),
+    ("tower influence (Bak's potential flow, Eames' shadow)",
+     {"wind": {"speed": 9.0, "shear": 0.14}, "aero": {"tower_potential": "bak", "tower_shadow": "eames"},
+      "generator": {"mode": "variable_speed"}}, None, 3, (0.3, 1.6)),
     ("ServoDyn VSContrl 1", {"generator": {"mode": "simple_variable_speed", "rated_speed_rpm": 1161.963,
                                            "rated_torque": 43093.55, "region2_k": 0.0255764,
                                            "slip_percent": 10.0, "on_speed_rpm": 900.0}}, None, 6, (0.5, 1.5)),
@@ -407,7 +411,7 @@ def compiled_loads(rng):
     """The whole right-hand side with every load effect: Built.rhs (loads packed into the
     kernel, model/effects/compiled.py) / the effects' Python __call__ + KaneEquations
     (numpy reference and kernel): wind (steady with shear; time series; an InflowWind
-    table), BEM aero (ElastoDyn blade nodes too), tower drag, generator laws (NREL 5-MW, constant, ServoDyn
+    table), BEM aero (ElastoDyn blade nodes too; the tower's influence on its wind), tower drag, generator laws (NREL 5-MW, constant, ServoDyn
     simple variable-speed and induction with their switches)."""
     return [pair for what, effects, modes, n, speeds in LOAD_SCENES
             for pair in rhs_pairs(turbine_with(effects, modes=modes), rng, what, n=n, speeds=speeds)]

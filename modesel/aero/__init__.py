@@ -12,6 +12,9 @@ airfoil `PolarSet`, air density, `BemOptions`, tower table) is read by
   (`Wind.vector`, compiled twin `wind.wind_velocity`).
 - `TowerDrag.load(z, v_wind, v_tower)`: tower drag per unit length (eq. 51)
   (compiled twin `tower_drag.drag_forces`).
+- `TowerInfluence.velocity(points, ...)`: AeroDyn's tower potential flow and
+  shadow on the blades' wind (TwrPotent, TwrShadow; compiled twin
+  `tower_influence.tower_disturbance`).
 """
 from modesel.aero.airfoils import Polar, PolarSet, read_polars
 from modesel.aero.bem import (BemOptions, BemSolver, ElementLoads, axial_induction,
@@ -20,9 +23,10 @@ from modesel.aero.bem import (BemOptions, BemSolver, ElementLoads, axial_inducti
 from modesel.aero.blade import AeroBlade
 from modesel.aero.rotor import steady_rotor
 from modesel.aero.tower_drag import TowerDrag
+from modesel.aero.tower_influence import TowerInfluence
 from modesel.aero.wind import Wind
 
 __all__ = ["AeroBlade", "BemOptions", "BemSolver", "ElementLoads", "Polar",
-           "PolarSet", "TowerDrag", "Wind", "axial_induction", "pitt_peters", "prandtl_loss",
+           "PolarSet", "TowerDrag", "TowerInfluence", "Wind", "axial_induction", "pitt_peters", "prandtl_loss",
            "read_polars", "skew_angles", "steady_rotor",
            "thrust_coefficient"]

@@ -38,8 +38,11 @@ class TowerDrag:
     diameter: np.ndarray
     drag_coefficient: np.ndarray
     source: str | None = None
+    turbulence: np.ndarray | None = None      # TwrTI [-] (Eames' tower shadow), None where the table has none
 
     def __post_init__(self):
+        if self.turbulence is not None:
+            self.turbulence = np.asarray(self.turbulence, float)
         self.elevation = np.asarray(self.elevation, float)
         self.diameter = np.asarray(self.diameter, float)
         self.drag_coefficient = np.asarray(self.drag_coefficient, float)

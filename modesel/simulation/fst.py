@@ -9,7 +9,8 @@ What the case's modules become:
   effect; still air (CompInflow = 0) -> zero wind when AeroDyn is on.
 - AeroDyn 15 (CompAero = 2, `turbine.aerodyn.aerodyn_case_options`) -> the `aero`
   effect (BEM, the deck's blade and polars, Pitt/Peters skew per the deck)
-  and, with TwrAero, `tower_drag` (on the aero effect's deck and air
+  with the deck's tower influence (TwrPotent, TwrShadow -> the aero effect's
+  tower_potential, tower_shadow) and, with TwrAero, `tower_drag` (on the aero effect's deck and air
   density); AirDens "default" takes the .fst AirDens.
 - ServoDyn (CompServo = 1, `turbine.servodyn.read_servodyn`) -> the `generator`
   effect (ServoDyn's simple variable-speed law, simple or
@@ -157,7 +158,8 @@ def scene_from_fst(path):
         out_list += ad_deck.outlist()
         decks_with_nodal_outputs.append(ad_deck)
         notes += ad["notes"]
-        aero = {"aerodyn": str(ad_path.resolve()), "skew": ad["skew"]}
+        aero = {"aerodyn": str(ad_path.resolve()), "skew": ad["skew"],
+                "tower_potential": ad["tower_potential"], "tower_shadow": ad["tower_shadow"]}
         if ad["air_density_default"] and "AirDens" in f:
             aero["air_density"] = f.number("AirDens")
         effects["aero"] = aero

@@ -23,6 +23,7 @@ from modesel.aero.airfoils import PolarSet, read_polars
 from modesel.aero.bem import PITT_PETERS_FACTOR, BemOptions
 from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
+from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES
 from modesel.turbine.deck_cache import cached
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
@@ -45,8 +46,12 @@ class AeroDynDeck:
         (Pitt/Peters; v15: SkewMod = 2; OpenFAST 4: Skew_Mod = 1 with
         SkewRedistr_Mod = 1); skew_factor from SkewModFactor (v15) /
         SkewRedistrFactor (OpenFAST 4).
-    tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd, or None if absent.
+    tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd (and TwrTI where the
+        table has it), or None if absent.
     tower_aero : TwrAero flag (apply tower drag).
+    tower_potential, tower_shadow : TwrPotent (0 none, 1 baseline, 2 Bak)
+        and TwrShadow (0 none, 1 Powles, 2 Eames), the tower's influence on
+        the blades' wind (`aero.tower_influence`).
     pitching_moment : UseBlCm flag (apply the sectional pitching moment
         Cm q c^2; AeroDyn's default True where the file has no UseBlCm).
     notes : one sentence per documented default or fallback applied.
@@ -59,6 +64,8 @@ class AeroDynDeck:
     bem: BemOptions = field(default_factory=BemOptions)
     tower: TowerDrag | None = None
     tower_aero: bool = False
+    tower_potential: int = 0
+    tower_shadow: int = 0
     pitching_moment: bool = True
     source: str | None = None
     notes: tuple = field(default_factory=tuple)
@@ -89,6 +96,9 @@ def _openfast_io_main(path: str) -> dict:
     out["AFNames"] = list(ad["AFNames"])
     out["ADBlFile"] = [ad[f"ADBlFile{i}"] for i in (1, 2, 3)]
     out["tower"] = np.array([ad["TwrElev"], ad["TwrDiam"], ad["TwrCd"]], float).T
+    ti = ad.get("TwrTI")
+    out["TwrTI"] = None if ti is None or any(v is None for v in ti) else np.asarray(ti, float)
+    out["TwrPotent"], out["TwrShadow"] = ad.get("TwrPotent", 0), ad.get("TwrShadow", 0)
     # sanity: a positional misread shows up as non-numeric physics values
     for key in ("AirDens", "KinVisc", "SpdSound"):
         value = out[key]
@@ -134,14 +144,23 @@ def _keyword_main(path: str) -> dict:
     out["AFNames"] = [lines[first + k][0].strip('"\'') for k in range(n_af)]
     out["ADBlFile"] = [_by_keyword(lines, f"ADBlFile({i})", path)[1].strip('"\'')
                        for i in (1, 2, 3)]
+    out["TwrTI"] = None
     try:
         row, n_twr = _by_keyword(lines, "NumTwrNds", path)
         n_twr = int(n_twr)
         # two header lines (names, units) follow NumTwrNds
-        out["tower"] = np.array([[float(v) for v in lines[row + 3 + k][:3]]
-                                 for k in range(n_twr)])
+        table = [lines[row + 3 + k] for k in range(n_twr)]
+        out["tower"] = np.array([[float(v) for v in cells[:3]] for cells in table])
+        names = lines[row + 1]
+        if "TwrTI" in names:
+            out["TwrTI"] = np.array([float(cells[names.index("TwrTI")]) for cells in table])
     except ModeselError:
         out["tower"] = None
+    for key in ("TwrPotent", "TwrShadow"):
+        try:
+            out[key] = _by_keyword(lines, key, path)[1]
+        except ModeselError:
+            out[key] = 0
     return out
 
 
@@ -154,6 +173,17 @@ def _flag(value, path, key) -> bool:
     if text in ("false", "f"):
         return False
     raise ModeselError(f"expected True/False, got {value!r}", file=path, field=key)
+
+
+def _switch(value, path, key) -> int:
+    """TwrPotent / TwrShadow: 0, 1 or 2."""
+    try:
+        number = int(str(value).strip('"'))
+    except ValueError:
+        number = -1
+    if number not in (0, 1, 2):
+        raise ModeselError(f"expected 0, 1 or 2, got {value!r}", file=path, field=key)
+    return number
 
 
 def _number(value, path, key, notes):
@@ -236,7 +266,7 @@ def _read_aerodyn(path) -> AeroDynDeck:
     table = main.get("tower")
     if table is not None and len(table):
         tower = TowerDrag(elevation=table[:, 0], diameter=table[:, 1], drag_coefficient=table[:, 2],
-                          source=path)
+                          turbulence=main.get("TwrTI"), source=path)
     deck = AeroDynDeck(
         blades=blades,
         air_density=_number(main["AirDens"], path, "AirDens", notes),
@@ -252,6 +282,8 @@ def _read_aerodyn(path) -> AeroDynDeck:
             skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes)),
         tower=tower,
         tower_aero=_flag(main["TwrAero"], path, "TwrAero"),
+        tower_potential=_switch(main["TwrPotent"], path, "TwrPotent"),
+        tower_shadow=_switch(main["TwrShadow"], path, "TwrShadow"),
         pitching_moment=_flag(main["UseBlCm"], path, "UseBlCm"),
         source=path,
         notes=tuple(notes),
@@ -266,8 +298,8 @@ def aerodyn_case_options(path) -> dict:
     (`BemSolver` via the `aero` effect) and tower drag (`tower_drag`), in
     either layout: AeroDyn 15 of OpenFAST 3 (WakeMod, AFAeroMod, SkewMod)
     or OpenFAST 4/5 (Wake_Mod, BEM_Mod, Skew_Mod, SkewRedistr_Mod, UA_Mod,
-    DBEMT_Mod, ...). Returns {"skew": bool, "tower_drag": bool, "air_density_default":
-    bool, "notes": [...]}. Every switched-on option modesel does not model
+    DBEMT_Mod, ...). Returns {"skew": bool, "tower_drag": bool, "tower_potential": str,
+    "tower_shadow": str, "air_density_default": bool, "notes": [...]}. Every switched-on option modesel does not model
     is a ModeselError naming the file and the input:
 
     - wake/induction other than quasi-steady BEMT (Wake_Mod/WakeMod != 1,
@@ -275,14 +307,16 @@ def aerodyn_case_options(path) -> dict:
       skew correction other than none / Pitt-Peters (Skew_Mod -1, SkewMod 3,
       SkewMomCorr), sector averaging (SectAvg);
     - unsteady airfoil aerodynamics (UA_Mod > 0 / AFAeroMod 2);
-    - tower potential flow (TwrPotent) or shadow (TwrShadow), cavitation,
-      buoyancy, nacelle drag, tail fin, aeroacoustics.
+    - cavitation, buoyancy, nacelle drag, tail fin, aeroacoustics.
 
     Mapped: Skew_Mod 1 with SkewRedistr_Mod 1 (SkewMod 2) -> Pitt/Peters
     correction; Skew_Mod 0, Skew_Mod 1 with SkewRedistr_Mod 0 (SkewMod 1)
     -> none. TwrAero -> modesel's tower drag, the same quasi-steady load as
     AeroDyn's ADTwr_CalcOutput (1/2 rho Cd d |V_n| V_n with V_n the
-    relative wind normal to the tower). TipLoss, HubLoss, TanInd, AIDrag,
+    relative wind normal to the tower). TwrPotent and TwrShadow -> the aero
+    effect's tower_potential and tower_shadow (`aero.tower_influence`,
+    AeroDyn's TwrInfl), returned by name as "tower_potential" and
+    "tower_shadow". TipLoss, HubLoss, TanInd, AIDrag,
     TIDrag, SkewRedistrFactor and the polars are read by `read_aerodyn`.
     UseBlCm -> the sectional pitching moment (`AeroDynDeck.pitching_moment`,
     applied by the aero effect as node moments). AoA34 (angle of attack at
@@ -322,13 +356,25 @@ def aerodyn_case_options(path) -> dict:
         if skew_mod not in (1, 2):
             raise f.unsupported("SkewMod", "only 1 = uncoupled and 2 = Pitt/Peters are modelled")
         skew = skew_mod == 2
-    for label, what in (("TwrPotent", "tower potential flow"), ("TwrShadow", "tower shadow")):
-        if f.integer(label) != 0:
-            raise f.unsupported(label, what)
+    potential, shadow = f.integer("TwrPotent"), f.integer("TwrShadow")
+    if potential not in (0, 1, 2):
+        raise f.unsupported("TwrPotent", "only 0, 1 = baseline and 2 = Bak are modelled")
+    if shadow not in (0, 1, 2):
+        raise f.unsupported("TwrShadow", "only 0, 1 = Powles and 2 = Eames are modelled")
+    if potential or shadow:
+        tower = read_aerodyn(path).tower
+        label = "TwrPotent" if potential else "TwrShadow"
+        if tower is None or len(tower.elevation) < 2:
+            raise ModeselError(f"{label} {potential or shadow} needs a tower table of at least 2 nodes "
+                               "(NumTwrNds)", file=str(path), field="NumTwrNds")
+        if shadow == 2 and (tower.turbulence is None or np.any(tower.turbulence <= 0.0)):
+            raise ModeselError("TwrShadow 2 (Eames) needs TwrTI > 0 at every tower node", file=str(path),
+                               field="TwrTI")
     for label, what in (("CavitCheck", "cavitation check"), ("Buoyancy", "buoyancy"),
                         ("NacelleDrag", "nacelle drag"), ("TFinAero", "tail-fin aerodynamics"),
                         ("CompAA", "aeroacoustics")):
         if label in f and f.flag(label):
             raise f.unsupported(label, what)
-    return {"skew": skew, "tower_drag": f.flag("TwrAero"),
+    return {"skew": skew, "tower_drag": f.flag("TwrAero"), "tower_potential": POTENTIAL_NAMES[potential],
+            "tower_shadow": SHADOW_NAMES[shadow],
             "air_density_default": f.string("AirDens").lower() == "default", "notes": notes}

@@ -6,6 +6,8 @@ Pitt-Peters skew; the work of the loads, eq. 52, enters as node forces).
     aerodyn = "path/to/AeroDyn.dat"   # default for the built-in nrel5mw: its bundled deck
     skew = true                       # Pitt-Peters (default: the deck's SkewMod)
     pitching_moment = true            # Cm q c^2 as node moments (default: the deck's UseBlCm)
+    tower_potential = "baseline"      # AeroDyn's TwrPotent: "none" (default), "baseline", "bak"
+    tower_shadow = "powles"           # AeroDyn's TwrShadow: "none" (default), "powles", "eames"
 
 Needs [effects.wind]. At every right-hand side:
 
@@ -16,7 +18,14 @@ Needs [effects.wind]. At every right-hand side:
    velocities include all structural motion (tower, nacelle, rotor speed,
    blade vibration) through the engine's kinematics (`kinematics.py`).
 2. Inflow (AeroDyn's legacy NoSweepPitchTwist projection, BEM_Mod 1):
-   v_rel = wind(station, t) - v_station. With x_s the shaft axis and z_b
+   v_rel = wind(station, t) + dv - v_station, with dv the tower's influence
+   (`aero.tower_influence`, AeroDyn's TwrInfl: potential flow around the
+   tower and its shadow downstream, referred to AeroDyn's tower nodes on the
+   deflected, moving tower; options tower_potential and tower_shadow, zero
+   without them). An OpenFAST case takes them from the deck's TwrPotent and
+   TwrShadow; a TOML scene only where it names them (the bundled NREL 5-MW
+   deck says TwrPotent 1; the in-house scenes are held against OpenFAST
+   runs made without it). With x_s the shaft axis and z_b
    the blade's (coned, pitched) axis, the coned normal is
    e_c = unit(x_s - (x_s . z_b) z_b) and the direction of rotation
    e_t = e_c x z_b. The deflected section's orientation is ElastoDyn's:
@@ -101,6 +110,7 @@ from numba import njit
 
 from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
+from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, tower_disturbance
 from modesel.aero.wind import wind_velocity
 from modesel.multibody.kinematics import PointSet
 from modesel.multibody.rotations import cross
@@ -150,6 +160,10 @@ class BladeAerodynamics(Effect):
         "skew": Option("bool", None, "Pitt-Peters skewed-wake correction"),
         "air_density": Option("number", None, "air density [kg/m^3] (default: the deck's)", positive=True),
         "pitching_moment": Option("bool", None, "sectional pitching moment Cm q c^2 (default: the deck's UseBlCm)"),
+        "tower_potential": Option("choice", "none", "potential flow around the tower (AeroDyn's TwrPotent)",
+                                  choices=POTENTIAL_NAMES),
+        "tower_shadow": Option("choice", "none", "tower shadow downstream (AeroDyn's TwrShadow)",
+                               choices=SHADOW_NAMES),
     }
 
     def setup(self, built):
@@ -228,6 +242,42 @@ class BladeAerodynamics(Effect):
         self.en = np.empty((B, M, 3))
         self.et = np.empty((B, M, 3))
         self.forces = np.empty((B, len(nodes_span), 6))     # node forces [N], moments [N m]
+        self.disturbance = np.zeros((B, M, 3))                # the tower's influence on the wind [m/s]
+        self.tower = self._tower_influence(built, deck)
+
+    def _tower_influence(self, built, deck):
+        """(TowerInfluence, the AeroDyn tower nodes as tower points) of the
+        tower_potential / tower_shadow options (module doc 2), or None."""
+        from modesel.aero.tower_influence import TowerInfluence
+        from modesel.model.effects.tower_drag import aerodyn_tower_stations
+        potential = POTENTIAL_NAMES.index(self.options["tower_potential"])
+        shadow = SHADOW_NAMES.index(self.options["tower_shadow"])
+        if potential == 0 and shadow == 0:
+            return None
+        table = deck.tower
+        if table is None or len(table.elevation) < 2:
+            raise self.error("the tower's influence needs the AeroDyn deck's tower table (NumTwrNds >= 2)",
+                             "tower_potential" if potential else "tower_shadow")
+        if shadow == 2 and (table.turbulence is None or np.any(table.turbulence <= 0.0)):
+            raise self.error("Eames' tower shadow needs TwrTI > 0 in the AeroDyn deck's tower table",
+                             "tower_shadow")
+        elevation, local = aerodyn_tower_stations(self, built, table.elevation)
+        s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
+        diameter, cd = table.properties(elevation)
+        ti = (np.zeros_like(elevation) if table.turbulence is None
+              else np.interp(elevation, table.elevation, table.turbulence))
+        influence = TowerInfluence(potential, shadow, diameter, cd, ti)
+        points = PointSet.of_points(built.eq, "tower", s0, Phi, S)
+        return influence, points, np.empty((len(local), 3))
+
+    def _disturb(self, frames, q_all, qd_all, wp):
+        """self.disturbance: the tower's influence at the stations (module doc 2)."""
+        influence, points, wind = self.tower
+        pos, vel = points.kinematics(frames, q_all, qd_all)
+        for k in range(len(pos)):
+            wind[k] = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+        tower_disturbance(influence.potential, influence.shadow, self.pos, pos, vel, wind, influence.packed(),
+                          self.disturbance)
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         frames = built.frames(q_all, qd_all)
@@ -235,8 +285,11 @@ class BladeAerodynamics(Effect):
         for b, st in enumerate(self.stations):
             st.kinematics(frames, q_all, qd_all, self.pos[b], self.vel[b])
             station_rotations(R[self.blades[b]], self.slopes[b], q_all[st.idx], self.rotation[b])
+        wp = self.wind.params(t)
+        if self.tower is not None:
+            self._disturb(frames, q_all, qd_all, wp)
         tsr = inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.rotation, self.reference,
-                     self.wind.params(t), self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
+                     wp, self.disturbance, self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
                      self.r, self.tip_ratio, self.vrel)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
                           self.theta, self.bem_weight(tsr))
@@ -334,9 +387,10 @@ class BladeAerodynamics(Effect):
         for k, name in enumerate(self.CHANNELS):
             packer.channel(name, o_ch + k)
         o_gen = packer.scratch(built.eq.n_all)        # the generalised forces, kept for held loads
+        o_dist = packer.scratch(B * M * 3)            # the tower's influence at the stations (zeros without)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
-                T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts]
+                T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts, o_dist, 0]
         first = [lp.first for lp in points] if at_points else [packed.node_rows(n)[0] for n in self.names]
         ints += list(self.blades) + first + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
@@ -349,6 +403,12 @@ class BladeAerodynamics(Effect):
         for name, nodes, lp in zip(self.names, self.nodes, points):
             ints += point_set_ints(packer, PointSet.of_points(built.eq, name, lp.s0, lp.Phi, lp.S)
                                    if at_points else nodes)
+        if self.tower is not None:      # (potential, shadow, m, props, scratch 9 m, tower points): `_tower`
+            influence, tower_points, _ = self.tower
+            m = len(tower_points.s0)
+            ints[27] = len(ints)
+            ints += [influence.potential, influence.shadow, m, packer.add(influence.packed()),
+                     packer.scratch(9 * m)] + point_set_ints(packer, tower_points)
         packer.record(AERO, ints)
 
     def channels(self, built):
@@ -819,10 +879,12 @@ ZERO_TOLERANCE = 50.0 * 2.220446049250313e-16
 
 
 @njit(cache=True)
-def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, theta, r_local,
+def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, theta, r_local,
            tip_ratio, vrel):
     """Element inflow (module doc, steps 2-3) for all blades and stations;
-    wp = `Wind.params(t)`, rotation (B, M, 3) the sections' small-rotation
+    wp = `Wind.params(t)`, dist (B, M, 3) [m/s] the tower's influence added
+    to the wind at each station (`aero.tower_influence`; zeros without it:
+    AeroDyn's DisturbedInflow, which the disk average takes too), rotation (B, M, 3) the sections' small-rotation
     vectors (`station_rotations`), A (M, 3, 3) their reference orientations
     (`section_reference`). Fills vn, vt, en, et (B, M, 3: the annulus normal
     and the direction of rotation of each station), theta (B, M: the
@@ -869,9 +931,9 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en
             en[b, k, 0], en[b, k, 1], en[b, k, 2] = a0, a1, a2
             et[b, k, 0], et[b, k, 1], et[b, k, 2] = t0, t1, t2
             uk0, uk1, uk2 = wind_velocity(wp, pos[b, k, 0], pos[b, k, 1], pos[b, k, 2])
-            v0 = uk0 - vel[b, k, 0]
-            v1 = uk1 - vel[b, k, 1]
-            v2 = uk2 - vel[b, k, 2]
+            v0 = uk0 + dist[b, k, 0] - vel[b, k, 0]
+            v1 = uk1 + dist[b, k, 1] - vel[b, k, 1]
+            v2 = uk2 + dist[b, k, 2] - vel[b, k, 2]
             vrel[0] += v0
             vrel[1] += v1
             vrel[2] += v2

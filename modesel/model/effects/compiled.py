@@ -28,7 +28,8 @@ from numba import cfunc, njit
 
 from modesel.aero.bem import bem_weight, solve_elements
 from modesel.aero.tower_drag import drag_forces
-from modesel.aero.wind import N_PARAMS, wind_params
+from modesel.aero.tower_influence import tower_disturbance
+from modesel.aero.wind import N_PARAMS, wind_params, wind_velocity
 from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
                                         rotor_loads, rotor_power, station_rotations)
 from modesel.model.effects.generator import LAW_PARAMETERS, switched_torque
@@ -99,12 +100,14 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
     kept = state[ints[p + 23]:ints[p + 23] + gen.shape[0]]      # the generalised forces of the last call
     rows, o_pts = ints[p + 24], ints[p + 25]          # rows per blade: nodes (N) or load points (M, o_pts > 0)
+    dist = state[ints[p + 26]:ints[p + 26] + B * M * 3].reshape((B, M, 3))
+    tower = p + ints[p + 27] if ints[p + 27] > 0 else -1    # the tower influence's ints, if any
     if held != 0:
         for i in range(gen.shape[0]):
             gen[i] += kept[i]
         return
     kept[:] = 0.0
-    p += 26
+    p += 28
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -165,8 +168,10 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
         station_rotations(R[blades[b]], Gs, qe, rotation[b])
     wp = state[0:N_PARAMS]
-    tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, vn, vt, skew, psi, en, et, section, r_local,
-                 tip_ratio, vrel)
+    if tower >= 0:
+        _tower(ints, tower, floats, state, R, vec, q_all, qd_all, wp, pos, dist)
+    tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, section,
+                 r_local, tip_ratio, vrel)
     c = floats[o_const:o_const + 6]
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
@@ -229,6 +234,21 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
             r_max = max(r_max, r[i])
         _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r_max, vrel, tsr,
                         skew[0, 0], state[o_ch:o_ch + 15])
+
+
+@njit(cache=True)
+def _tower(ints, p, floats, state, R, vec, q_all, qd_all, wp, stations, dist):
+    """The tower's influence on the wind at the blade stations (effects/aero.py
+    `_disturb`, `aero.tower_influence.tower_disturbance`) into dist; the
+    record's ints (potential, shadow, m, props, scratch, tower points) start at p."""
+    potential, shadow, m, o_props, o_scr = ints[p], ints[p + 1], ints[p + 2], ints[p + 3], ints[p + 4]
+    pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
+    vel = state[o_scr + 3 * m:o_scr + 6 * m].reshape((m, 3))
+    wind = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
+    _point_kinematics(ints, p + 5, floats, R, vec, q_all, qd_all, pos, vel)
+    for k in range(m):
+        wind[k, 0], wind[k, 1], wind[k, 2] = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+    tower_disturbance(potential, shadow, stations, pos, vel, wind, floats[o_props:o_props + 3 * m], dist)
 
 
 @njit(cache=True)

@@ -19,7 +19,10 @@ line mesh onto ElastoDyn's loads only the span the two share, a node below
 the table's lowest or above its highest elevation takes no drag. Diameter
 and Cd are the table's at the stations. Air density: the aero effect's
 (an OpenFAST case's AirDens, as for the rotor) where the drag takes its
-deck, else the deck's. No tower shadow on the blades. Needs [effects.wind].
+deck, else the deck's. The tower's influence on the blades' wind (AeroDyn's
+TwrPotent, TwrShadow) belongs to the aero effect (its tower_potential and
+tower_shadow options), which takes AeroDyn's tower nodes from
+`aerodyn_tower_stations` as this effect does. Needs [effects.wind].
 
 The node loads are T g of the station loads g (T the transfer, N x P), so
 the compiled loop may take them at one load point per station
@@ -57,7 +60,7 @@ class TowerDragLoads(Effect):
         self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
                     else deck.air_density)
         self.nodes = PointSet.of_body(built.eq, "tower")
-        self.elevation, local = self._stations(built)
+        self.elevation, local = aerodyn_tower_stations(self, built, self.drag.elevation)
         s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
         self.stations = PointSet.of_points(built.eq, "tower", s0, Phi, S)
         self.coef = self.drag.coefficient(self.elevation, self.rho)           # [kg/m^2]
@@ -67,31 +70,6 @@ class TowerDragLoads(Effect):
         else:
             self.transfer = sampled_transfer(local, self.nodes.s0[:, 2], weights)
         self.line = np.empty((len(local), 3))                                  # p at the stations [N/m]
-
-    def _stations(self, built):
-        """Elevations [m] and body-frame heights [m] of the stations: the
-        table's elevations on the tower, cut at its base and top where the
-        table reaches beyond them (module doc); heights at rest from the
-        nodes' (the undeflected tower is straight)."""
-        q, qd = _rest(built)
-        # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
-        # compile here, before the first run's parallel compile (`simulation.first_run`)
-        eq = built.eq
-        z_rest = eq.node_kinematics("tower", eq.kinematics(q, qd)[eq.body_index["tower"]], q, qd)[0][:, 2]
-        local = self.nodes.s0[:, 2]
-        slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
-        tower = built.model.turbine.tower
-        ends = np.array([tower.root_offset, tower.root_offset + tower.length])
-        table = (np.asarray(self.drag.elevation, float) - base) / slope
-        tol = 1e-6 * tower.length
-        lo, hi = max(ends[0], table.min()), min(ends[1], table.max())
-        if hi - lo <= tol:
-            raise self.error(f"the AeroDyn tower table (TwrElev {self.drag.elevation.min():g} to "
-                             f"{self.drag.elevation.max():g} m) does not reach the tower (base {base + slope * ends[0]:g} m,"
-                             f" top {base + slope * ends[1]:g} m above the ground)", "aerodyn")
-        inside = table[(table > lo + tol) & (table < hi - tol)]
-        local = np.concatenate([[lo], inside, [hi]])
-        return base + slope * local, local
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         pos, vel = self.stations.kinematics(built.frames(q_all, qd_all), q_all, qd_all)
@@ -118,6 +96,34 @@ class TowerDragLoads(Effect):
         ints = [start, band.shape[0], band.shape[1], packer.add(self.coef), packer.scratch(9 * m),
                 packer.add(band)] + list(first)
         packer.record(TOWER_DRAG, ints + point_set_ints(packer, self.stations))
+
+
+def aerodyn_tower_stations(effect, built, table):
+    """Elevations [m] and body-frame heights [m] of AeroDyn's tower nodes on
+    the tower: the table's elevations `table` [m], cut at the tower's base
+    and top where the table reaches beyond them (module doc); heights at
+    rest from the nodes' (the undeflected tower is straight). The tower drag
+    and the aero effect's tower influence (effects/aero.py) take them."""
+    q, qd = _rest(built)
+    # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
+    # compile here, before the first run's parallel compile (`simulation.first_run`)
+    eq = built.eq
+    z_rest = eq.node_kinematics("tower", eq.kinematics(q, qd)[eq.body_index["tower"]], q, qd)[0][:, 2]
+    local = PointSet.of_body(eq, "tower").s0[:, 2]
+    slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
+    tower = built.model.turbine.tower
+    ends = np.array([tower.root_offset, tower.root_offset + tower.length])
+    table = np.asarray(table, float)
+    rows = (table - base) / slope
+    tol = 1e-6 * tower.length
+    lo, hi = max(ends[0], rows.min()), min(ends[1], rows.max())
+    if hi - lo <= tol:
+        raise effect.error(f"the AeroDyn tower table (TwrElev {table.min():g} to {table.max():g} m) does not "
+                           f"reach the tower (base {base + slope * ends[0]:g} m, top {base + slope * ends[1]:g} m "
+                           "above the ground)", "aerodyn")
+    inside = rows[(rows > lo + tol) & (rows < hi - tol)]
+    local = np.concatenate([[lo], inside, [hi]])
+    return base + slope * local, local
 
 
 def _rest(built):
