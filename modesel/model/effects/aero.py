@@ -249,7 +249,6 @@ class BladeAerodynamics(Effect):
         """(TowerInfluence, the AeroDyn tower nodes as tower points) of the
         tower_potential / tower_shadow options (module doc 2), or None."""
         from modesel.aero.tower_influence import TowerInfluence
-        from modesel.model.effects.tower_drag import aerodyn_tower_stations
         potential = POTENTIAL_NAMES.index(self.options["tower_potential"])
         shadow = SHADOW_NAMES.index(self.options["tower_shadow"])
         if potential == 0 and shadow == 0:
@@ -1024,6 +1023,40 @@ def row_bands(W):
     for i in range(rows):
         values[i] = W[i, first[i]:first[i] + width]
     return values, first
+
+
+def aerodyn_tower_stations(effect, built, table):
+    """Elevations [m] and body-frame heights [m] of AeroDyn's tower nodes on
+    the tower: the table's elevations `table` [m], cut at the tower's base
+    and top where the table reaches beyond them (effects/tower_drag.py); heights at
+    rest from the nodes' (the undeflected tower is straight). The tower drag
+    and the aero effect's tower influence (effects/aero.py) take them (`_tower_influence`)."""
+    q, qd = _rest(built)
+    # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
+    # compile here, before the first run's parallel compile (`simulation.first_run`)
+    eq = built.eq
+    z_rest = eq.node_kinematics("tower", eq.kinematics(q, qd)[eq.body_index["tower"]], q, qd)[0][:, 2]
+    local = PointSet.of_body(eq, "tower").s0[:, 2]
+    slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
+    tower = built.model.turbine.tower
+    ends = np.array([tower.root_offset, tower.root_offset + tower.length])
+    table = np.asarray(table, float)
+    rows = (table - base) / slope
+    tol = 1e-6 * tower.length
+    lo, hi = max(ends[0], rows.min()), min(ends[1], rows.max())
+    if hi - lo <= tol:
+        raise effect.error(f"the AeroDyn tower table (TwrElev {table.min():g} to {table.max():g} m) does not "
+                           f"reach the tower (base {base + slope * ends[0]:g} m, top {base + slope * ends[1]:g} m "
+                           "above the ground)", "aerodyn")
+    inside = rows[(rows > lo + tol) & (rows < hi - tol)]
+    local = np.concatenate([[lo], inside, [hi]])
+    return base + slope * local, local
+
+
+def _rest(built):
+    """All coordinates and rates of the undeflected turbine at rest."""
+    n = built.eq.n_all
+    return built.eq.fixed_values.copy(), np.zeros(n)
 
 
 EFFECT = BladeAerodynamics

@@ -22,7 +22,7 @@ and Cd are the table's at the stations. Air density: the aero effect's
 deck, else the deck's. The tower's influence on the blades' wind (AeroDyn's
 TwrPotent, TwrShadow) belongs to the aero effect (its tower_potential and
 tower_shadow options), which takes AeroDyn's tower nodes from
-`aerodyn_tower_stations` as this effect does. Needs [effects.wind].
+`effects.aero.aerodyn_tower_stations`, as this effect does. Needs [effects.wind].
 
 The node loads are T g of the station loads g (T the transfer, N x P), so
 the compiled loop may take them at one load point per station
@@ -37,7 +37,8 @@ from __future__ import annotations
 import numpy as np
 
 from modesel.aero.tower_drag import drag_forces
-from modesel.model.effects.aero import aerodyn_deck, cell_transfer, row_bands, sampled_transfer, wind_of
+from modesel.model.effects.aero import (aerodyn_deck, aerodyn_tower_stations, cell_transfer, row_bands,
+                                        sampled_transfer, wind_of)
 from modesel.model.effects.base import Effect, Option
 from modesel.multibody.kinematics import PointSet
 
@@ -96,40 +97,6 @@ class TowerDragLoads(Effect):
         ints = [start, band.shape[0], band.shape[1], packer.add(self.coef), packer.scratch(9 * m),
                 packer.add(band)] + list(first)
         packer.record(TOWER_DRAG, ints + point_set_ints(packer, self.stations))
-
-
-def aerodyn_tower_stations(effect, built, table):
-    """Elevations [m] and body-frame heights [m] of AeroDyn's tower nodes on
-    the tower: the table's elevations `table` [m], cut at the tower's base
-    and top where the table reaches beyond them (module doc); heights at
-    rest from the nodes' (the undeflected tower is straight). The tower drag
-    and the aero effect's tower influence (effects/aero.py) take them."""
-    q, qd = _rest(built)
-    # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
-    # compile here, before the first run's parallel compile (`simulation.first_run`)
-    eq = built.eq
-    z_rest = eq.node_kinematics("tower", eq.kinematics(q, qd)[eq.body_index["tower"]], q, qd)[0][:, 2]
-    local = PointSet.of_body(eq, "tower").s0[:, 2]
-    slope, base = np.polyfit(local, z_rest, 1) if len(local) > 1 else (1.0, z_rest[0] - local[0])
-    tower = built.model.turbine.tower
-    ends = np.array([tower.root_offset, tower.root_offset + tower.length])
-    table = np.asarray(table, float)
-    rows = (table - base) / slope
-    tol = 1e-6 * tower.length
-    lo, hi = max(ends[0], rows.min()), min(ends[1], rows.max())
-    if hi - lo <= tol:
-        raise effect.error(f"the AeroDyn tower table (TwrElev {table.min():g} to {table.max():g} m) does not "
-                           f"reach the tower (base {base + slope * ends[0]:g} m, top {base + slope * ends[1]:g} m "
-                           "above the ground)", "aerodyn")
-    inside = rows[(rows > lo + tol) & (rows < hi - tol)]
-    local = np.concatenate([[lo], inside, [hi]])
-    return base + slope * local, local
-
-
-def _rest(built):
-    """All coordinates and rates of the undeflected turbine at rest."""
-    n = built.eq.n_all
-    return built.eq.fixed_values.copy(), np.zeros(n)
 
 
 EFFECT = TowerDragLoads
