@@ -39,8 +39,8 @@ with, where |zbar| < 1 (eq. numbers are AeroDyn's theory manual's):
 u_shadow no lower than -0.5. A station farther than 20 D from the tower
 surface, or closer than D / 100 (inside it), keeps the undisturbed wind.
 
-`TowerInfluence.velocity` is the numpy reference; `disturbance` (numba, one
-station) and `tower_disturbance` (all stations of a rotor) are the compiled
+`TowerInfluence.velocity` is the numpy reference; `tower_disturbance` (numba,
+all stations of a rotor) and `_deficit` are the compiled
 twins the aero effect uses (effects/aero.py); tests/test_tower_influence.py
 holds them equal and checks the potential flow against the cylinder's.
 """
@@ -195,88 +195,86 @@ def _deficit(potential, shadow, xbar, ybar, zbar, cd, ti):
 
 
 @njit(cache=True)
-def disturbance(potential, shadow, px, py, pz, pos, vel, wind, props, out):
-    """Compiled twin of `TowerInfluence.velocity` for one station (px, py,
-    pz) [m]: writes dv [m/s] into out (3,); props = `TowerInfluence.packed`."""
-    m = pos.shape[0]
-    out[0] = 0.0
-    out[1] = 0.0
-    out[2] = 0.0
-    best = np.inf
-    j = -1
-    e_j = 0.0
-    for k in range(m - 1):
-        d0, d1, d2 = pos[k + 1, 0] - pos[k, 0], pos[k + 1, 1] - pos[k, 1], pos[k + 1, 2] - pos[k, 2]
-        e = (d0 * (px - pos[k, 0]) + d1 * (py - pos[k, 1]) + d2 * (pz - pos[k, 2])) / (d0 * d0 + d1 * d1 + d2 * d2)
-        if -_ON_END < e < 0.0:
-            e = 0.0
-        elif 1.0 < e < 1.0 + _ON_END:
-            e = 1.0
-        if e < 0.0 or e > 1.0:
-            continue
-        r0, r1, r2 = px - pos[k, 0] - e * d0, py - pos[k, 1] - e * d1, pz - pos[k, 2] - e * d2
-        dist = r0 * r0 + r1 * r1 + r2 * r2
-        if dist < best:
-            best = dist
-            j = k
-            e_j = e
-    end = False
-    if j >= 0:
-        w0, w1 = 1.0 - e_j, e_j
-        a, b, k = j, j + 1, j
-    else:
-        for n in range(m):
-            r0, r1, r2 = px - pos[n, 0], py - pos[n, 1], pz - pos[n, 2]
-            dist = r0 * r0 + r1 * r1 + r2 * r2
-            if dist < best:
-                best = dist
-                j = n
-        w0, w1 = 1.0, 0.0
-        a, b, k = j, j, min(j, m - 2)
-        end = j == 0 or j == m - 1
-    r0 = px - w0 * pos[a, 0] - w1 * pos[b, 0]
-    r1 = py - w0 * pos[a, 1] - w1 * pos[b, 1]
-    r2 = pz - w0 * pos[a, 2] - w1 * pos[b, 2]
-    diam = w0 * props[a] + w1 * props[b]
-    cd = w0 * props[m + a] + w1 * props[m + b]
-    ti = w0 * props[2 * m + a] + w1 * props[2 * m + b]
-    v0 = w0 * (wind[a, 0] - vel[a, 0]) + w1 * (wind[b, 0] - vel[b, 0])
-    v1 = w0 * (wind[a, 1] - vel[a, 1]) + w1 * (wind[b, 1] - vel[b, 1])
-    v2 = w0 * (wind[a, 2] - vel[a, 2]) + w1 * (wind[b, 2] - vel[b, 2])
-    z0, z1, z2 = pos[k + 1, 0] - pos[k, 0], pos[k + 1, 1] - pos[k, 1], pos[k + 1, 2] - pos[k, 2]
-    zz = np.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
-    z0, z1, z2 = z0 / zz, z1 / zz, z2 / zz
-    clearance = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2) - 0.5 * diam
-    if clearance > 20.0 * diam or clearance <= 0.01 * diam:
-        return
-    vz = v0 * z0 + v1 * z1 + v2 * z2
-    n0, n1, n2 = v0 - vz * z0, v1 - vz * z1, v2 - vz * z2
-    W = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    if W == 0.0:
-        return
-    x0, x1, x2 = n0 / W, n1 / W, n2 / W
-    y0, y1, y2 = (z1 * v2 - z2 * v1) / W, (z2 * v0 - z0 * v2) / W, (z0 * v1 - z1 * v0) / W
-    xbar = 2.0 / diam * (r0 * x0 + r1 * x1 + r2 * x2)
-    ybar = 2.0 / diam * (r0 * y0 + r1 * y1 + r2 * y2)
-    zbar = 0.0
-    if end:
-        zbar = 2.0 / diam * (r0 * z0 + r1 * z1 + r2 * z2)
-        if abs(zbar) < 1.0:
-            taper = np.cos(0.5 * np.pi * zbar)
-            xbar /= taper
-            ybar /= taper
+def tower_disturbance(potential, shadow, stations, pos, vel, wind, props, dist):
+    """Compiled twin of `TowerInfluence.velocity`: the wind's change dv [m/s]
+    at every station (B, M, 3) [m] into dist (B, M, 3), from the tower
+    nodes' positions, velocities and wind pos, vel, wind (m, 3) and props =
+    `TowerInfluence.packed` (one function, not one per station: numba
+    optimises a callee again inside each caller's module)."""
+    pts = stations.reshape((-1, 3))
+    out = dist.reshape((-1, 3))
+    for i in range(pts.shape[0]):
+        px, py, pz = pts[i, 0], pts[i, 1], pts[i, 2]
+        out[i, 0] = 0.0
+        out[i, 1] = 0.0
+        out[i, 2] = 0.0
+        m = pos.shape[0]
+        best = np.inf
+        j = -1
+        e_j = 0.0
+        for k in range(m - 1):
+            d0, d1, d2 = pos[k + 1, 0] - pos[k, 0], pos[k + 1, 1] - pos[k, 1], pos[k + 1, 2] - pos[k, 2]
+            e = (d0 * (px - pos[k, 0]) + d1 * (py - pos[k, 1]) + d2 * (pz - pos[k, 2])) / (d0 * d0 + d1 * d1 + d2 * d2)
+            if -_ON_END < e < 0.0:
+                e = 0.0
+            elif 1.0 < e < 1.0 + _ON_END:
+                e = 1.0
+            if e < 0.0 or e > 1.0:
+                continue
+            r0, r1, r2 = px - pos[k, 0] - e * d0, py - pos[k, 1] - e * d1, pz - pos[k, 2] - e * d2
+            gap = r0 * r0 + r1 * r1 + r2 * r2
+            if gap < best:
+                best = gap
+                j = k
+                e_j = e
+        end = False
+        if j >= 0:
+            w0, w1 = 1.0 - e_j, e_j
+            a, b, k = j, j + 1, j
         else:
-            xbar, ybar = 1.0, 0.0
-    u, v = _deficit(potential, shadow, xbar, ybar, zbar, cd, ti)
-    out[0] = W * (u * x0 + v * y0)
-    out[1] = W * (u * x1 + v * y1)
-    out[2] = W * (u * x2 + v * y2)
-
-
-@njit(cache=True)
-def tower_disturbance(potential, shadow, stations, pos, vel, wind, props, out):
-    """`disturbance` at every station (B, M, 3) into out (B, M, 3) [m/s]."""
-    for b in range(stations.shape[0]):
-        for k in range(stations.shape[1]):
-            disturbance(potential, shadow, stations[b, k, 0], stations[b, k, 1], stations[b, k, 2], pos, vel, wind,
-                        props, out[b, k])
+            for n in range(m):
+                r0, r1, r2 = px - pos[n, 0], py - pos[n, 1], pz - pos[n, 2]
+                gap = r0 * r0 + r1 * r1 + r2 * r2
+                if gap < best:
+                    best = gap
+                    j = n
+            w0, w1 = 1.0, 0.0
+            a, b, k = j, j, min(j, m - 2)
+            end = j == 0 or j == m - 1
+        r0 = px - w0 * pos[a, 0] - w1 * pos[b, 0]
+        r1 = py - w0 * pos[a, 1] - w1 * pos[b, 1]
+        r2 = pz - w0 * pos[a, 2] - w1 * pos[b, 2]
+        diam = w0 * props[a] + w1 * props[b]
+        cd = w0 * props[m + a] + w1 * props[m + b]
+        ti = w0 * props[2 * m + a] + w1 * props[2 * m + b]
+        v0 = w0 * (wind[a, 0] - vel[a, 0]) + w1 * (wind[b, 0] - vel[b, 0])
+        v1 = w0 * (wind[a, 1] - vel[a, 1]) + w1 * (wind[b, 1] - vel[b, 1])
+        v2 = w0 * (wind[a, 2] - vel[a, 2]) + w1 * (wind[b, 2] - vel[b, 2])
+        z0, z1, z2 = pos[k + 1, 0] - pos[k, 0], pos[k + 1, 1] - pos[k, 1], pos[k + 1, 2] - pos[k, 2]
+        zz = np.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
+        z0, z1, z2 = z0 / zz, z1 / zz, z2 / zz
+        clearance = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2) - 0.5 * diam
+        if clearance > 20.0 * diam or clearance <= 0.01 * diam:
+            continue
+        vz = v0 * z0 + v1 * z1 + v2 * z2
+        n0, n1, n2 = v0 - vz * z0, v1 - vz * z1, v2 - vz * z2
+        W = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        if W == 0.0:
+            continue
+        x0, x1, x2 = n0 / W, n1 / W, n2 / W
+        y0, y1, y2 = (z1 * v2 - z2 * v1) / W, (z2 * v0 - z0 * v2) / W, (z0 * v1 - z1 * v0) / W
+        xbar = 2.0 / diam * (r0 * x0 + r1 * x1 + r2 * x2)
+        ybar = 2.0 / diam * (r0 * y0 + r1 * y1 + r2 * y2)
+        zbar = 0.0
+        if end:
+            zbar = 2.0 / diam * (r0 * z0 + r1 * z1 + r2 * z2)
+            if abs(zbar) < 1.0:
+                taper = np.cos(0.5 * np.pi * zbar)
+                xbar /= taper
+                ybar /= taper
+            else:
+                xbar, ybar = 1.0, 0.0
+        u, v = _deficit(potential, shadow, xbar, ybar, zbar, cd, ti)
+        out[i, 0] = W * (u * x0 + v * y0)
+        out[i, 1] = W * (u * x1 + v * y1)
+        out[i, 2] = W * (u * x2 + v * y2)

@@ -11,7 +11,8 @@ compiled functions the Python path (`Built.M_F`, effects' `__call__`)
 calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
 `effects.aero.station_rotations`/`inflow`/`distribute`/
 `elastic_correction`/`node_moments`, `aero.bem.solve_elements`,
-`aero.tower_drag.drag_forces`, `effects.generator.switched_torque`; the
+`aero.tower_drag.drag_forces`, `aero.tower_influence.tower_disturbance`,
+`effects.generator.switched_torque`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
 sides equal).
 
