@@ -246,8 +246,9 @@ class BladeAerodynamics(Effect):
         self.tower = self._tower_influence(built, deck)
 
     def _tower_influence(self, built, deck):
-        """(TowerInfluence, the AeroDyn tower nodes as tower points) of the
-        tower_potential / tower_shadow options (module doc 2), or None."""
+        """(TowerInfluence, the AeroDyn tower nodes as tower points, a buffer
+        for the wind there) of the tower_potential / tower_shadow options
+        (module doc 2), or None."""
         from modesel.aero.tower_influence import TowerInfluence
         potential = POTENTIAL_NAMES.index(self.options["tower_potential"])
         shadow = SHADOW_NAMES.index(self.options["tower_shadow"])
@@ -387,9 +388,11 @@ class BladeAerodynamics(Effect):
             packer.channel(name, o_ch + k)
         o_gen = packer.scratch(built.eq.n_all)        # the generalised forces, kept for held loads
         o_dist = packer.scratch(B * M * 3)            # the tower's influence at the stations (zeros without)
+        # the header's last int: where the tower influence's ints start in the record (0: none)
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
                 T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts, o_dist, 0]
+        tower_at = len(ints) - 1
         first = [lp.first for lp in points] if at_points else [packed.node_rows(n)[0] for n in self.names]
         ints += list(self.blades) + first + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
@@ -405,7 +408,7 @@ class BladeAerodynamics(Effect):
         if self.tower is not None:      # (potential, shadow, m, props, scratch 9 m, tower points): `_tower`
             influence, tower_points, _ = self.tower
             m = len(tower_points.s0)
-            ints[27] = len(ints)
+            ints[tower_at] = len(ints)
             ints += [influence.potential, influence.shadow, m, packer.add(influence.packed()),
                      packer.scratch(9 * m)] + point_set_ints(packer, tower_points)
         packer.record(AERO, ints)
