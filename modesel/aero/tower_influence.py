@@ -51,6 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from modesel.errors import ModeselError
+
 #: names of TwrPotent's values 0, 1, 2 (the aero effect's tower_potential option): no potential
 #: flow, baseline, with Bak's correction
 POTENTIAL_NAMES = ("none", "baseline", "bak")
@@ -88,6 +90,19 @@ def deficit(potential, shadow, xbar, ybar, zbar, cd, ti):
             s = ti * xbar
             u_sh = np.where(behind, -cd / (s * np.sqrt(2.0 * np.pi)) * np.exp(-0.5 * (ybar / s) ** 2), 0.0)
     return u_pot + np.maximum(u_sh, _SHADOW_FLOOR), v_pot
+
+
+def check_tower_table(table, potential, shadow, source):
+    """The AeroDyn tower table (`TowerDrag` or None) that TwrPotent `potential`
+    and TwrShadow `shadow` need: at least 2 nodes, and TwrTI > 0 at every
+    node for Eames' shadow; else a one-line ModeselError naming the AeroDyn
+    file `source` and the input."""
+    if table is None or len(table.elevation) < 2:
+        label = "TwrPotent" if potential else "TwrShadow"
+        raise ModeselError(f"{label} {potential or shadow} needs a tower table of at least 2 nodes (NumTwrNds)",
+                           file=source, field="NumTwrNds")
+    if shadow == 2 and (table.turbulence is None or np.any(table.turbulence <= 0.0)):
+        raise ModeselError("TwrShadow 2 (Eames) needs TwrTI > 0 at every tower node", file=source, field="TwrTI")
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from modesel.aero.airfoils import PolarSet, read_polars
 from modesel.aero.bem import PITT_PETERS_FACTOR, BemOptions
 from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
-from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES
+from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, check_tower_table
 from modesel.turbine.deck_cache import cached
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
@@ -49,9 +49,6 @@ class AeroDynDeck:
     tower : `TowerDrag` from TwrElev/TwrDiam/TwrCd (and TwrTI where the
         table has it), or None if absent.
     tower_aero : TwrAero flag (apply tower drag).
-    tower_potential, tower_shadow : TwrPotent (0 none, 1 baseline, 2 Bak)
-        and TwrShadow (0 none, 1 Powles, 2 Eames), the tower's influence on
-        the blades' wind (`aero.tower_influence`).
     pitching_moment : UseBlCm flag (apply the sectional pitching moment
         Cm q c^2; AeroDyn's default True where the file has no UseBlCm).
     notes : one sentence per documented default or fallback applied.
@@ -64,8 +61,6 @@ class AeroDynDeck:
     bem: BemOptions = field(default_factory=BemOptions)
     tower: TowerDrag | None = None
     tower_aero: bool = False
-    tower_potential: int = 0
-    tower_shadow: int = 0
     pitching_moment: bool = True
     source: str | None = None
     notes: tuple = field(default_factory=tuple)
@@ -98,7 +93,6 @@ def _openfast_io_main(path: str) -> dict:
     out["tower"] = np.array([ad["TwrElev"], ad["TwrDiam"], ad["TwrCd"]], float).T
     ti = ad.get("TwrTI")
     out["TwrTI"] = None if ti is None or any(v is None for v in ti) else np.asarray(ti, float)
-    out["TwrPotent"], out["TwrShadow"] = ad.get("TwrPotent", 0), ad.get("TwrShadow", 0)
     # sanity: a positional misread shows up as non-numeric physics values
     for key in ("AirDens", "KinVisc", "SpdSound"):
         value = out[key]
@@ -156,11 +150,6 @@ def _keyword_main(path: str) -> dict:
             out["TwrTI"] = np.array([float(cells[names.index("TwrTI")]) for cells in table])
     except ModeselError:
         out["tower"] = None
-    for key in ("TwrPotent", "TwrShadow"):
-        try:
-            out[key] = _by_keyword(lines, key, path)[1]
-        except ModeselError:
-            out[key] = 0
     return out
 
 
@@ -173,17 +162,6 @@ def _flag(value, path, key) -> bool:
     if text in ("false", "f"):
         return False
     raise ModeselError(f"expected True/False, got {value!r}", file=path, field=key)
-
-
-def _switch(value, path, key) -> int:
-    """TwrPotent / TwrShadow: 0, 1 or 2."""
-    try:
-        number = int(str(value).strip('"'))
-    except ValueError:
-        number = -1
-    if number not in (0, 1, 2):
-        raise ModeselError(f"expected 0, 1 or 2, got {value!r}", file=path, field=key)
-    return number
 
 
 def _number(value, path, key, notes):
@@ -282,8 +260,6 @@ def _read_aerodyn(path) -> AeroDynDeck:
             skew_factor=_number(main["SkewModFactor"], path, "SkewModFactor", notes)),
         tower=tower,
         tower_aero=_flag(main["TwrAero"], path, "TwrAero"),
-        tower_potential=_switch(main["TwrPotent"], path, "TwrPotent"),
-        tower_shadow=_switch(main["TwrShadow"], path, "TwrShadow"),
         pitching_moment=_flag(main["UseBlCm"], path, "UseBlCm"),
         source=path,
         notes=tuple(notes),
@@ -362,14 +338,7 @@ def aerodyn_case_options(path) -> dict:
     if shadow not in (0, 1, 2):
         raise f.unsupported("TwrShadow", "only 0, 1 = Powles and 2 = Eames are modelled")
     if potential or shadow:
-        tower = read_aerodyn(path).tower
-        label = "TwrPotent" if potential else "TwrShadow"
-        if tower is None or len(tower.elevation) < 2:
-            raise ModeselError(f"{label} {potential or shadow} needs a tower table of at least 2 nodes "
-                               "(NumTwrNds)", file=str(path), field="NumTwrNds")
-        if shadow == 2 and (tower.turbulence is None or np.any(tower.turbulence <= 0.0)):
-            raise ModeselError("TwrShadow 2 (Eames) needs TwrTI > 0 at every tower node", file=str(path),
-                               field="TwrTI")
+        check_tower_table(read_aerodyn(path).tower, potential, shadow, str(path))
     for label, what in (("CavitCheck", "cavitation check"), ("Buoyancy", "buoyancy"),
                         ("NacelleDrag", "nacelle drag"), ("TFinAero", "tail-fin aerodynamics"),
                         ("CompAA", "aeroacoustics")):

@@ -110,7 +110,7 @@ from numba import njit
 
 from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
-from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, tower_disturbance
+from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, check_tower_table, tower_disturbance
 from modesel.aero.wind import wind_velocity
 from modesel.multibody.kinematics import PointSet
 from modesel.multibody.rotations import cross
@@ -247,7 +247,7 @@ class BladeAerodynamics(Effect):
 
     def _tower_influence(self, built, deck):
         """(TowerInfluence, the AeroDyn tower nodes as tower points, a buffer
-        for the wind there) of the tower_potential / tower_shadow options
+        for the wind there, the influence's packed floats) of the tower_potential / tower_shadow options
         (module doc 2), or None."""
         from modesel.aero.tower_influence import TowerInfluence
         potential = POTENTIAL_NAMES.index(self.options["tower_potential"])
@@ -255,12 +255,7 @@ class BladeAerodynamics(Effect):
         if potential == 0 and shadow == 0:
             return None
         table = deck.tower
-        if table is None or len(table.elevation) < 2:
-            raise self.error("the tower's influence needs the AeroDyn deck's tower table (NumTwrNds >= 2)",
-                             "tower_potential" if potential else "tower_shadow")
-        if shadow == 2 and (table.turbulence is None or np.any(table.turbulence <= 0.0)):
-            raise self.error("Eames' tower shadow needs TwrTI > 0 in the AeroDyn deck's tower table",
-                             "tower_shadow")
+        check_tower_table(table, potential, shadow, deck.source)
         elevation, local = aerodyn_tower_stations(self, built, table.elevation)
         s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
         diameter, cd = table.properties(elevation)
@@ -268,15 +263,15 @@ class BladeAerodynamics(Effect):
               else np.interp(elevation, table.elevation, table.turbulence))
         influence = TowerInfluence(potential, shadow, diameter, cd, ti)
         points = PointSet.of_points(built.eq, "tower", s0, Phi, S)
-        return influence, points, np.empty((len(local), 3))
+        return influence, points, np.empty((len(local), 3)), influence.packed()
 
     def _disturb(self, frames, q_all, qd_all, wp):
         """self.disturbance: the tower's influence at the stations (module doc 2)."""
-        influence, points, wind = self.tower
+        influence, points, wind, props = self.tower
         pos, vel = points.kinematics(frames, q_all, qd_all)
         for k in range(len(pos)):
             wind[k] = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
-        tower_disturbance(influence.potential, influence.shadow, self.pos, pos, vel, wind, influence.packed(),
+        tower_disturbance(influence.potential, influence.shadow, self.pos, pos, vel, wind, props,
                           self.disturbance)
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
@@ -406,10 +401,10 @@ class BladeAerodynamics(Effect):
             ints += point_set_ints(packer, PointSet.of_points(built.eq, name, lp.s0, lp.Phi, lp.S)
                                    if at_points else nodes)
         if self.tower is not None:      # (potential, shadow, m, props, scratch 9 m, tower points): `_tower`
-            influence, tower_points, _ = self.tower
+            influence, tower_points, _, props = self.tower
             m = len(tower_points.s0)
             ints[tower_at] = len(ints)
-            ints += [influence.potential, influence.shadow, m, packer.add(influence.packed()),
+            ints += [influence.potential, influence.shadow, m, packer.add(props),
                      packer.scratch(9 * m)] + point_set_ints(packer, tower_points)
         packer.record(AERO, ints)
 
