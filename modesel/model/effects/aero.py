@@ -256,14 +256,12 @@ class BladeAerodynamics(Effect):
             return None
         table = deck.tower
         check_tower_table(table, potential, shadow, deck.source)
-        elevation, local = aerodyn_tower_stations(self, built, table.elevation)
-        s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
+        elevation, _, points = aerodyn_tower_stations(self, built, table.elevation)
         diameter, cd = table.properties(elevation)
         ti = (np.zeros_like(elevation) if table.turbulence is None
               else np.interp(elevation, table.elevation, table.turbulence))
         influence = TowerInfluence(potential, shadow, diameter, cd, ti)
-        points = PointSet.of_points(built.eq, "tower", s0, Phi, S)
-        return influence, points, np.empty((len(local), 3)), influence.packed()
+        return influence, points, np.empty((len(elevation), 3)), influence.packed()
 
     def _disturb(self, frames, q_all, qd_all, wp):
         """self.disturbance: the tower's influence at the stations (module doc 2)."""
@@ -1024,11 +1022,12 @@ def row_bands(W):
 
 
 def aerodyn_tower_stations(effect, built, table):
-    """Elevations [m] and body-frame heights [m] of AeroDyn's tower nodes on
-    the tower: the table's elevations `table` [m], cut at the tower's base
-    and top where the table reaches beyond them (effects/tower_drag.py); heights at
-    rest from the nodes' (the undeflected tower is straight). The tower drag
-    and the aero effect's tower influence (effects/aero.py) take them (`_tower_influence`)."""
+    """(elevations [m], body-frame heights [m], tower points `PointSet`) of
+    AeroDyn's tower nodes on the tower: the table's elevations `table` [m],
+    cut at the tower's base and top where the table reaches beyond them
+    (effects/tower_drag.py); heights at rest from the nodes' (the undeflected
+    tower is straight); the points with the tower's shapes there. The tower
+    drag and the aero effect's tower influence (`_tower_influence`) take them."""
     q, qd = _rest(built)
     # the numpy reference (`KaneEquations.node_kinematics`): the compiled frames would
     # compile here, before the first run's parallel compile (`simulation.first_run`)
@@ -1048,7 +1047,8 @@ def aerodyn_tower_stations(effect, built, table):
                            "above the ground)", "aerodyn")
     inside = rows[(rows > lo + tol) & (rows < hi - tol)]
     local = np.concatenate([[lo], inside, [hi]])
-    return base + slope * local, local
+    s0, Phi, S = built.model.station_shapes("tower", local - tower.root_offset)
+    return base + slope * local, local, PointSet.of_points(eq, "tower", s0, Phi, S)
 
 
 def _rest(built):

@@ -61,9 +61,7 @@ class TowerDragLoads(Effect):
         self.rho = (aero.bem.solver.air_density if aero is not None and self.options["aerodyn"] is None
                     else deck.air_density)
         self.nodes = PointSet.of_body(built.eq, "tower")
-        self.elevation, local = aerodyn_tower_stations(self, built, self.drag.elevation)
-        s0, Phi, S = built.model.station_shapes("tower", local - built.model.turbine.tower.root_offset)
-        self.stations = PointSet.of_points(built.eq, "tower", s0, Phi, S)
+        self.elevation, local, self.stations = aerodyn_tower_stations(self, built, self.drag.elevation)
         self.coef = self.drag.coefficient(self.elevation, self.rho)           # [kg/m^2]
         weights = np.asarray(built.model.weights["tower"], float)
         if built.model.tower_elastodyn_nodes:
