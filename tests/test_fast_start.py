@@ -466,7 +466,8 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     effects compiles the right-hand side here and the loops in the child,
     not the effects' loads it never calls (28 s of one core, which made
     paper_3dof_land's first run 43-48 s instead of 26-32 s); a scene with
-    BEM loads has the child compile them. It is decided by the cache of the
+    BEM loads has the child compile them (and the loads with the tower's
+    influence, for a scene with it). It is decided by the cache of the
     right-hand side's cfunc, which numba keeps under `kernel.free_system`,
     and it spawns nothing once that is there (a child per warm run cost a
     warm paper_3dof_land 1 s)."""
@@ -504,6 +505,20 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     assert not first_run.compile_in_parallel(bare) and not spawned
     assert first_run.compile_in_parallel(windy)
     assert f"import {first_run.LOADS_MODULE}" in spawned[0] and spawned[1] == ("here", ("runge_kutta",))
+    assert "tower_loads()" not in spawned[0]
+    # AeroDyn's tower influence: its loads (a second cfunc) compile in the child too, and
+    # only for a scene that has it, also once the loads without it are cached
+    tower = build(load_scene(ROOT / "tests" / "data" / "openfast_more" / "tower_potential" / "tower_potential.fst"))
+    spawned.clear()
+    assert first_run.compile_in_parallel(tower)
+    assert f"import {first_run.LOADS_MODULE}; {first_run.LOADS_MODULE}.tower_loads();" in spawned[0]
+    cached.add((first_run.LOADS_MODULE, None))
+    spawned.clear()
+    assert not first_run.compile_in_parallel(windy) and not spawned
+    assert first_run.compile_in_parallel(tower) and "tower_loads()" in spawned[0]
+    cached.add((first_run.LOADS_MODULE, first_run.TOWER_LOADS))
+    spawned.clear()
+    assert not first_run.compile_in_parallel(tower) and not spawned
     # the right-hand side's cfunc is cached under the function it compiles (numba's naming)
     from modesel.multibody import system_function
     index = system_function.FREE_SYSTEM._cache._cache_file._index_name

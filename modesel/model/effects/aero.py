@@ -245,6 +245,12 @@ class BladeAerodynamics(Effect):
         self.disturbance = np.zeros((B, M, 3))                # the tower's influence on the wind [m/s]
         self.tower = self._tower_influence(built, deck)
 
+    @property
+    def tower_influence(self) -> bool:
+        """Whether the blades' wind has the tower's influence (module doc 2; its
+        compiled loads are then `effects.compiled_tower`'s)."""
+        return self.tower is not None
+
     def _tower_influence(self, built, deck):
         """(TowerInfluence, the AeroDyn tower nodes as tower points, a buffer
         for the wind there, the influence's packed floats) of the tower_potential / tower_shadow options
@@ -401,6 +407,7 @@ class BladeAerodynamics(Effect):
         if self.tower is not None:      # (potential, shadow, m, props, scratch 9 m, tower points): `_tower`
             influence, tower_points, _, props = self.tower
             m = len(tower_points.s0)
+            packer.tower_influence = True
             ints[tower_at] = len(ints)
             ints += [influence.potential, influence.shadow, m, packer.add(props),
                      packer.scratch(9 * m)] + point_set_ints(packer, tower_points)

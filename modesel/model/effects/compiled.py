@@ -8,11 +8,13 @@ one compiled loop serves every scene with loads and stays in numba's
 on-disk cache)
 evaluates them by a dispatch on the effect kind. The physics are the same
 compiled functions the Python path (`Built.M_F`, effects' `__call__`)
-calls: `kinematics.points`, `aero.wind.wind_params`/`wind_velocity`,
+calls: `kinematics.points`, `aero.wind.wind_params`,
 `effects.aero.station_rotations`/`inflow`/`distribute`/
 `elastic_correction`/`node_moments`, `aero.bem.solve_elements`,
-`aero.tower_drag.drag_forces`, `aero.tower_influence.tower_disturbance`,
-`effects.generator.switched_torque`; the
+`aero.tower_drag.drag_forces`, `effects.generator.switched_torque`
+and, for a scene with the tower influence (`tower_loads`, a second cfunc
+compiled on first use), `aero.wind.wind_velocity` and
+`aero.tower_influence.tower_disturbance`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
 sides equal).
 
@@ -59,7 +61,24 @@ def pack_loads(built, packed):
                                                                            w.reference_length])])
     for e in acting:
         e.compile_loads(built, packer, packed)
-    return (effect_loads,) + packer.arrays(), dict(packer.channels)
+    loads = tower_loads() if packer.tower_influence else effect_loads
+    return (loads,) + packer.arrays(), dict(packer.channels)
+
+
+@njit(["float64[:, ::1](float64[::1], int64, int64, int64)",
+       "int64[:, ::1](int64[::1], int64, int64, int64)"], cache=True)
+def _view2(a, offset, n0, n1):
+    """a[offset:offset + n0 n1] as an (n0, n1) array: one compiled reshape that
+    the records' many views call, instead of numba's reshape and its
+    shape-error path compiled at each of them (`_view3` likewise); its
+    signatures, given, keep literal sizes from compiling copies of it."""
+    return a[offset:offset + n0 * n1].reshape((n0, n1))
+
+
+@njit(["float64[:, :, ::1](float64[::1], int64, int64, int64, int64)"], cache=True)
+def _view3(a, offset, n0, n1, n2):
+    """a[offset:offset + n0 n1 n2] as an (n0, n1, n2) array (`_view2`)."""
+    return a[offset:offset + n0 * n1 * n2].reshape((n0, n1, n2))
 
 
 @njit(cache=True)
@@ -67,11 +86,11 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
     """Positions and velocities of the point set whose ints start at p;
     returns the number of ints it used."""
     body, m, ne, off = ints[p], ints[p + 1], ints[p + 2], ints[p + 3]
-    s0 = floats[off:off + 3 * m].reshape((m, 3))
+    s0 = _view2(floats, off, m, 3)
     off += 3 * m
-    Phi = floats[off:off + 3 * m * ne].reshape((m, 3, ne))
+    Phi = _view3(floats, off, m, 3, ne)
     off += 3 * m * ne
-    S = floats[off:off + m * ne * ne].reshape((m, ne, ne))
+    S = _view3(floats, off, m, ne, ne)
     off += m * ne * ne
     axis = floats[off:off + 3]
     qe = np.empty(ne)
@@ -84,9 +103,33 @@ def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
 
 
 @njit(cache=True)
+def _stations(ints, p, floats, state, R, vec, q_all, qd_all):
+    """The blade stations' positions, velocities and section rotations (effects/aero.py
+    `BladeAerodynamics.__call__`, step 1) into the aero record's scratch (`_aero`)."""
+    B, M, o_scr, o_slopes = ints[p + 1], ints[p + 2], ints[p + 10], ints[p + 12]
+    ne_el, K, N = ints[p + 16], ints[p + 19], ints[p + 3]
+    pos = _view3(state, o_scr, B, M, 3)
+    vel = _view3(state, o_scr + B * M * 3, B, M, 3)
+    rotation = _view3(state, o_scr + 2 * B * M * 3, B, M, 3)
+    blades = ints[p + 28:p + 28 + B]
+    p += 28 + 2 * B + B * M + B * ne_el + 2 * K + N
+    so = o_slopes
+    for b in range(B):
+        ne = ints[p + 2]
+        qe = np.empty(ne)
+        for l in range(ne):
+            qe[l] = q_all[ints[p + 4 + l]]
+        Gs = _view3(floats, so, M, 3, ne)
+        so += M * 3 * ne
+        p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
+        station_rotations(R[blades[b]], Gs, qe, rotation[b])
+
+
+@njit(cache=True)
 def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held):
-    """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 1-5):
-    station kinematics and section rotations, inflow, BEM, distribution to the nodes
+    """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 2-5)
+    at the stations `_stations` left in the record's scratch, with the tower's
+    influence `_tower` left there (zeros without): inflow, BEM, distribution to the nodes
     and node moments, or the same loads at the blades' load points (`point_loads`),
     ElastoDyn's generalised-force correction when packed.
     The generalised forces are summed in a state slot (n_all) and added to
@@ -95,14 +138,12 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
                                                                 ints[p + 10])
-    o_ref, o_slopes, o_loss, static_loss, o_corr, ne_el = (ints[p + 11], ints[p + 12], ints[p + 13],
-                                                          ints[p + 14], ints[p + 15], ints[p + 16])
+    o_ref, o_loss, static_loss, o_corr, ne_el = ints[p + 11], ints[p + 13], ints[p + 14], ints[p + 15], ints[p + 16]
     has_corr, o_mom, K, o_ch = ints[p + 17], ints[p + 18], ints[p + 19], ints[p + 20]
     WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
     kept = state[ints[p + 23]:ints[p + 23] + gen.shape[0]]      # the generalised forces of the last call
     rows, o_pts = ints[p + 24], ints[p + 25]          # rows per blade: nodes (N) or load points (M, o_pts > 0)
-    dist = state[ints[p + 26]:ints[p + 26] + B * M * 3].reshape((B, M, 3))
-    tower = p + ints[p + 27] if ints[p + 27] > 0 else -1    # the tower influence's ints, if any
+    dist = _view3(state, ints[p + 26], B, M, 3)
     if held != 0:
         for i in range(gen.shape[0]):
             gen[i] += kept[i]
@@ -113,7 +154,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
     p += 2 * B + B * M
-    elastic = ints[p:p + B * ne_el].reshape((B, ne_el))
+    elastic = _view2(ints, p, B, ne_el)
     p += B * ne_el
     near = ints[p:p + K]
     p += K
@@ -122,29 +163,29 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     L_first = ints[p:p + K]
     p += K
     o = o_scr
-    pos = state[o:o + B * M * 3].reshape((B, M, 3))
+    pos = _view3(state, o, B, M, 3)
     o += B * M * 3
-    vel = state[o:o + B * M * 3].reshape((B, M, 3))
+    vel = _view3(state, o, B, M, 3)
     o += B * M * 3
-    rotation = state[o:o + B * M * 3].reshape((B, M, 3))
+    rotation = _view3(state, o, B, M, 3)
     o += B * M * 3
-    en = state[o:o + B * M * 3].reshape((B, M, 3))
+    en = _view3(state, o, B, M, 3)
     o += B * M * 3
-    et = state[o:o + B * M * 3].reshape((B, M, 3))
+    et = _view3(state, o, B, M, 3)
     o += B * M * 3
-    vn = state[o:o + B * M].reshape((B, M))
+    vn = _view2(state, o, B, M)
     o += B * M
-    vt = state[o:o + B * M].reshape((B, M))
+    vt = _view2(state, o, B, M)
     o += B * M
-    skew = state[o:o + B * M].reshape((B, M))
+    skew = _view2(state, o, B, M)
     o += B * M
-    psi = state[o:o + B * M].reshape((B, M))
+    psi = _view2(state, o, B, M)
     o += B * M
-    r_local = state[o:o + B * M].reshape((B, M))
+    r_local = _view2(state, o, B, M)
     o += B * M
-    tip_ratio = state[o:o + B * M].reshape((B, M))
+    tip_ratio = _view2(state, o, B, M)
     o += B * M
-    section = state[o:o + B * M].reshape((B, M))
+    section = _view2(state, o, B, M)
     o += B * M
     c_tip = state[o:o + B * M]
     o += B * M
@@ -152,25 +193,15 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     o += B * M
     vrel = state[o:o + 3]
     o += 3
-    out = state[o:o + 13 * B * M].reshape((13, B * M))
+    out = _view2(state, o, 13, B * M)
     o += 13 * B * M
-    forces = state[o:o + B * rows * 6].reshape((B, rows, 6))
+    forces = _view3(state, o, B, rows, 6)
     o += B * rows * 6
     guess = state[o:o + B * M]
-    A = floats[o_ref:o_ref + 9 * M].reshape((M, 3, 3))
-    so = o_slopes
-    for b in range(B):
-        ne = ints[p + 2]
-        qe = np.empty(ne)
-        for l in range(ne):
-            qe[l] = q_all[ints[p + 4 + l]]
-        Gs = floats[so:so + M * 3 * ne].reshape((M, 3, ne))
-        so += M * 3 * ne
-        p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
-        station_rotations(R[blades[b]], Gs, qe, rotation[b])
+    A = _view3(floats, o_ref, M, 3, 3)
+    for _ in range(B):                # past the blades' point sets (`_stations`)
+        p += 4 + ints[p + 2]
     wp = state[0:N_PARAMS]
-    if tower >= 0:
-        _tower(ints, tower, floats, state, R, vec, q_all, qd_all, wp, pos, dist)
     tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, section,
                  r_local, tip_ratio, vrel)
     c = floats[o_const:o_const + 6]
@@ -186,40 +217,40 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
             c_tip[i] = 0.5 * c[0] * (c[1] - r[i]) / r[i]
             c_hub[i] = 0.5 * c[0] * (r[i] - c[2]) / c[2]
     grid = floats[o_pol:o_pol + G]
-    value = floats[o_pol + G:o_pol + G + 3 * PG].reshape((3, PG))
-    slope = floats[o_pol + G + 3 * PG:o_pol + G + 6 * PG].reshape((3, PG))
+    value = _view2(floats, o_pol + G, 3, PG)
+    slope = _view2(floats, o_pol + G + 3 * PG, 3, PG)
     flags = ints[p:p + 7]
     solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
                    c[4], c[5], flags[6], bem_weight(tsr), out, guess)
-    fn = out[9].reshape((B, M))
-    ft = out[10].reshape((B, M))
+    fn = _view2(out[9], 0, B, M)
+    ft = _view2(out[10], 0, B, M)
     if has_corr != 0:
-        D = floats[o_corr:o_corr + M * 3 * ne_el].reshape((M, 3, ne_el))
+        D = _view3(floats, o_corr, M, 3, ne_el)
         elastic_correction(fn, ft, en, et, R, blades, D, elastic, kept)
     cm_scale = floats[o_mom]
     if o_pts > 0:
         w = floats[o_pts:o_pts + M]
         wm = floats[o_pts + M:o_pts + 2 * M]
         op = o_pts + 2 * M
-        ow = floats[op:op + 3 * M].reshape((M, 3))
+        ow = _view2(floats, op, M, 3)
         op += 3 * M
-        Dc = floats[op:op + 3 * M * ne_el].reshape((M, ne_el, 3))
+        Dc = _view3(floats, op, M, ne_el, 3)
         op += 3 * M * ne_el
-        Dg = floats[op:op + 3 * M * ne_el].reshape((M, ne_el, 3))
-        point_loads(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic,
+        Dg = _view3(floats, op, M, ne_el, 3)
+        point_loads(fn, ft, _view2(out[11], 0, B, M), cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic,
                     forces, kept)
     else:
-        T = floats[o_T:o_T + N * WT].reshape((N, WT))
+        T = _view2(floats, o_T, N, WT)
         distribute(fn, ft, en, et, T, T_first, forces)
         om = o_mom + 1
-        L = floats[om:om + K * WL].reshape((K, WL))
+        L = _view2(floats, om, K, WL)
         om += K * WL
-        moff = floats[om:om + 3 * K].reshape((K, 3))
+        moff = _view2(floats, om, K, 3)
         om += 3 * K
-        nslopes = floats[om:om + N * 3 * ne_el].reshape((N, 3, ne_el))
-        node_moments(fn, ft, out[11].reshape((B, M)), cm_scale, en, et, R, blades, L, L_first, near, moff,
+        nslopes = _view3(floats, om, N, 3, ne_el)
+        node_moments(fn, ft, _view2(out[11], 0, B, M), cm_scale, en, et, R, blades, L, L_first, near, moff,
                      nslopes, elastic, forces, kept)
     for i in range(gen.shape[0]):
         gen[i] += kept[i]
@@ -238,15 +269,24 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
 
 
 @njit(cache=True)
-def _tower(ints, p, floats, state, R, vec, q_all, qd_all, wp, stations, dist):
+def _tower(ints, p, floats, state, R, vec, q_all, qd_all):
     """The tower's influence on the wind at the blade stations (effects/aero.py
-    `_disturb`, `aero.tower_influence.tower_disturbance`) into dist; the
-    record's ints (potential, shadow, m, props, scratch, tower points) start at p."""
-    potential, shadow, m, o_props, o_scr = ints[p], ints[p + 1], ints[p + 2], ints[p + 3], ints[p + 4]
-    pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
-    vel = state[o_scr + 3 * m:o_scr + 6 * m].reshape((m, 3))
-    wind = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
+    `_disturb`, `aero.tower_influence.tower_disturbance`) of the aero record
+    whose ints start at p, at the stations `_stations` left in its scratch,
+    into its dist slot; the influence's ints (potential, shadow, m, props,
+    scratch, tower points) start at the record's tower slot (none: nothing)."""
+    if ints[p + 27] == 0:
+        return
+    B, M, o_scr = ints[p + 1], ints[p + 2], ints[p + 10]
+    stations = _view3(state, o_scr, B, M, 3)
+    dist = _view3(state, ints[p + 26], B, M, 3)
+    p += ints[p + 27]
+    potential, shadow, m, o_props, o_tw = ints[p], ints[p + 1], ints[p + 2], ints[p + 3], ints[p + 4]
+    pos = _view2(state, o_tw, m, 3)
+    vel = _view2(state, o_tw + 3 * m, m, 3)
+    wind = _view2(state, o_tw + 6 * m, m, 3)
     _point_kinematics(ints, p + 5, floats, R, vec, q_all, qd_all, pos, vel)
+    wp = state[0:N_PARAMS]
     for k in range(m):
         wind[k, 0], wind[k, 1], wind[k, 2] = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
     tower_disturbance(potential, shadow, stations, pos, vel, wind, floats[o_props:o_props + 3 * m], dist)
@@ -294,12 +334,12 @@ def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
     first = ints[p + 6:p + 6 + rows]
     a = p + 6 + rows
     body, m = ints[a], ints[a + 1]
-    pos = state[o_scr:o_scr + 3 * m].reshape((m, 3))
-    vel = state[o_scr + 3 * m:o_scr + 6 * m].reshape((m, 3))
-    line = state[o_scr + 6 * m:o_scr + 9 * m].reshape((m, 3))
+    pos = _view2(state, o_scr, m, 3)
+    vel = _view2(state, o_scr + 3 * m, m, 3)
+    line = _view2(state, o_scr + 6 * m, m, 3)
     _point_kinematics(ints, a, floats, R, vec, q_all, qd_all, pos, vel)
     drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], line)
-    band = floats[o_band:o_band + rows * width].reshape((rows, width))
+    band = _view2(floats, o_band, rows, width)
     for i in range(rows):
         f0 = first[i]
         v0 = v1 = 0.0
@@ -326,22 +366,24 @@ def _generator(t, ints, p, floats, state, qd_all, gen):
     state[o_s + 3] = P
 
 
-@cfunc(LOADS_SIG, cache=True)
-def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
-    """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`).
-    held != 0: the BEM loads and the tower drag are those of the last call
-    (their node forces stay in fnodes, the BEM's generalised forces are added
-    again); the wind and the generator are evaluated (a generator law can be
-    stiff: its torque's slope stays in Radau's Jacobian)."""
+@njit(inline="always")
+def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, tower):
+    """The loop over the records (`effect_loads`), inlined into each cfunc
+    that calls it (no compiled level of its own); tower None: numba prunes the
+    tower influence's branch, whose code then compiles only into `tower_loads`."""
     p = 1
     for _ in range(ints[0]):
         kind, length = ints[p], ints[p + 1]
         a = p + 2
         if kind == WIND:
             n = ints[a + 1]
-            wind_params(floats[ints[a]:ints[a] + 9 * n].reshape((n, 9)), floats[ints[a + 2]],
+            wind_params(_view2(floats, ints[a], n, 9), floats[ints[a + 2]],
                         floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
         elif kind == AERO:
+            if held == 0:
+                _stations(ints, a, floats, state, R, vec, q_all, qd_all)
+                if tower is not None:
+                    _tower(ints, a, floats, state, R, vec, q_all, qd_all)
             _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held)
         elif kind == TOWER_DRAG:
             if held == 0:
@@ -353,3 +395,34 @@ def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, sta
         if not np.isfinite(gen[i]):
             return 4                                  # kernel.NON_FINITE_ACC
     return 0
+
+
+@cfunc(LOADS_SIG, cache=True)
+def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`).
+    held != 0: the BEM loads and the tower drag are those of the last call
+    (their node forces stay in fnodes, the BEM's generalised forces are added
+    again); the wind and the generator are evaluated (a generator law can be
+    stiff: its torque's slope stays in Radau's Jacobian). Without the tower
+    influence (`tower_loads` has it)."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, None)
+
+
+def _effect_loads_tower(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """`effect_loads` with the tower influence (`_tower`); compiled by
+    `tower_loads` on first use."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True)
+
+
+_TOWER_LOADS = []
+
+
+def tower_loads():
+    """The cfunc (`kernel.LOADS_SIG`) of the loads with AeroDyn's tower influence
+    on the blades' wind (`_effect_loads_tower`), compiled on the first call in
+    a process (from numba's cache after the first run), so that its code
+    (`_tower`, `aero.tower_influence`) stays out of `effect_loads`, which
+    every scene with effects compiles on its first run."""
+    if not _TOWER_LOADS:
+        _TOWER_LOADS.append(cfunc(LOADS_SIG, cache=True)(_effect_loads_tower))
+    return _TOWER_LOADS[0]

@@ -26,6 +26,8 @@ class Packer:
         self.n_state = CHANNEL_FLAG + 1
         self.initial = {}
         self.channels = {}
+        #: a record needs the tower influence's code (`compiled_tower`)
+        self.tower_influence = False
 
     def add(self, array) -> int:
         """Append an array to floats; its offset."""
