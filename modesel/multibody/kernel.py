@@ -117,6 +117,24 @@ SYSTEM_SIG = types.UniTuple(types.int64, 2)(types.float64, _F1, _F1, types.int64
 
 
 # ------------------------------------------------------------------ small helpers
+@njit(["float64[:, ::1](float64[::1], int64, int64, int64)",
+       "int64[:, ::1](int64[::1], int64, int64, int64)"], cache=True)
+def view2(a, offset, n0, n1):
+    """a[offset:offset + n0 n1] as an (n0, n1) array: one compiled reshape that
+    the many views of the kernel and of the effects' records
+    (`model.effects.compiled`) call, instead of numba's reshape and its
+    shape-error path compiled at each of them (`view3` likewise; about 40 ms
+    of compile each); its signatures, given, keep literal sizes from
+    compiling copies of it."""
+    return a[offset:offset + n0 * n1].reshape((n0, n1))
+
+
+@njit(["float64[:, :, ::1](float64[::1], int64, int64, int64, int64)"], cache=True)
+def view3(a, offset, n0, n1, n2):
+    """a[offset:offset + n0 n1 n2] as an (n0, n1, n2) array (`view2`)."""
+    return a[offset:offset + n0 * n1 * n2].reshape((n0, n1, n2))
+
+
 @njit(cache=True)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -436,12 +454,12 @@ def _flexible(b, q, qd, gvec, fnodes, fflag, data, work, Mb, fy):
             for i in range(3):
                 fr[i] += fk[i]
             if has_eta:
-                eta = fpool[bi[b, ETA0]:bi[b, ETA0] + nl * ne].reshape((nl, ne))
+                eta = view2(fpool, bi[b, ETA0], nl, ne)
                 ma = fk[0] * ax[0] + fk[1] * ax[1] + fk[2] * ax[2]
                 for l in range(ne):
                     fe[l] += ma * eta[k, l]
     # elastic forces (A16-A19)
-    KD = fpool[bi[b, KD0]:bi[b, KD0] + 2 * ne * ne].reshape((2, ne, ne))
+    KD = view3(fpool, bi[b, KD0], 2, ne, ne)
     for l in range(ne):
         x = 0.0
         for m_ in range(ne):
@@ -495,9 +513,9 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
     qe, qde, fe = e_scr[0, :ne], e_scr[1, :ne], e_scr[2, :ne]
     Ct, Cr = B3[0], B3[1]
     N3 = 3 * N
-    Phi = fpool[bi[b, PHI0]:bi[b, PHI0] + N3 * ne].reshape((N3, ne))       # row 3k+i: node k, axis i
-    B = nodes[0, :N3 * ne].reshape((N3, ne))                               # B_loc (body frame)
-    W = nodes[1, :N3 * (ne + 1)].reshape((N3, ne + 1))                     # [m_k B_loc, load_k]
+    Phi = view2(fpool, bi[b, PHI0], N3, ne)       # row 3k+i: node k, axis i
+    B = view2(nodes[0], 0, N3, ne)                               # B_loc (body frame)
+    W = view2(nodes[1], 0, N3, ne + 1)                     # [m_k B_loc, load_k]
     Sq = nodes[2, :N * ne]
     s, pdv, load = nodes[3, :N3], nodes[4, :N3], nodes[5, :N3]
     loc = work[10]
@@ -507,9 +525,9 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
     # deformed positions s = s0 + Phi q_e - 1/2 (q_e^T S_k q_e) e_axis and
     # B_loc = Phi - e_axis (S_k q_e)^T (first paper D4; second paper eq. 3)
     if has_S:
-        Sk = fpool[bi[b, S0]:bi[b, S0] + N * ne * ne].reshape((N * ne, ne))
+        Sk = view2(fpool, bi[b, S0], N * ne, ne)
     else:
-        Sk = fpool[:0].reshape((0, ne))
+        Sk = view2(fpool, 0, 0, ne)
     for k in range(N):
         qSq = 0.0
         qdSqd = 0.0
@@ -536,7 +554,7 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
             pdv[r] = y
         load[3 * k] = -qdSqd          # axial acceleration, kept here until the load is formed
     # loads m (g - a_node) + f_node and the node rows of G = [I ...; [s_k~] ...]
-    G = work[13][:6 * N3].reshape((6, N3))
+    G = view2(work[13], 0, 6, N3)
     mass = mp0 = mp1 = mp2 = 0.0
     J00 = J11 = J22 = J01 = J02 = J12 = 0.0          # sum m s s^T
     for k in range(N):
@@ -602,7 +620,7 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
                     Irr[i, j] += jp * ax[i] * ax[j]
                 fr[i] -= jp * eal * ax[i]
         if has_eta:
-            eta = fpool[bi[b, ETA0]:bi[b, ETA0] + N * ne].reshape((N, ne))
+            eta = view2(fpool, bi[b, ETA0], N, ne)
             for k in range(N):
                 jp = Jp[a0 + k]
                 for l in range(ne):

@@ -36,7 +36,7 @@ from modesel.aero.wind import N_PARAMS, wind_params, wind_velocity
 from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
                                         rotor_loads, rotor_power, station_rotations)
 from modesel.model.effects.generator import LAW_PARAMETERS, switched_torque
-from modesel.multibody.kernel import LOADS_SIG
+from modesel.multibody.kernel import LOADS_SIG, view2, view3
 from modesel.multibody.kinematics import points
 
 from modesel.model.effects.packing import AERO, CHANNEL_FLAG, GENERATOR, TOWER_DRAG, WIND, Packer  # noqa: F401
@@ -65,32 +65,16 @@ def pack_loads(built, packed):
     return (loads,) + packer.arrays(), dict(packer.channels)
 
 
-@njit(["float64[:, ::1](float64[::1], int64, int64, int64)",
-       "int64[:, ::1](int64[::1], int64, int64, int64)"], cache=True)
-def _view2(a, offset, n0, n1):
-    """a[offset:offset + n0 n1] as an (n0, n1) array: one compiled reshape that
-    the records' many views call, instead of numba's reshape and its
-    shape-error path compiled at each of them (`_view3` likewise); its
-    signatures, given, keep literal sizes from compiling copies of it."""
-    return a[offset:offset + n0 * n1].reshape((n0, n1))
-
-
-@njit(["float64[:, :, ::1](float64[::1], int64, int64, int64, int64)"], cache=True)
-def _view3(a, offset, n0, n1, n2):
-    """a[offset:offset + n0 n1 n2] as an (n0, n1, n2) array (`_view2`)."""
-    return a[offset:offset + n0 * n1 * n2].reshape((n0, n1, n2))
-
-
 @njit(cache=True)
 def _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos, vel):
     """Positions and velocities of the point set whose ints start at p;
     returns the number of ints it used."""
     body, m, ne, off = ints[p], ints[p + 1], ints[p + 2], ints[p + 3]
-    s0 = _view2(floats, off, m, 3)
+    s0 = view2(floats, off, m, 3)
     off += 3 * m
-    Phi = _view3(floats, off, m, 3, ne)
+    Phi = view3(floats, off, m, 3, ne)
     off += 3 * m * ne
-    S = _view3(floats, off, m, ne, ne)
+    S = view3(floats, off, m, ne, ne)
     off += m * ne * ne
     axis = floats[off:off + 3]
     qe = np.empty(ne)
@@ -108,9 +92,9 @@ def _stations(ints, p, floats, state, R, vec, q_all, qd_all):
     `BladeAerodynamics.__call__`, step 1) into the aero record's scratch (`_aero`)."""
     B, M, o_scr, o_slopes = ints[p + 1], ints[p + 2], ints[p + 10], ints[p + 12]
     ne_el, K, N = ints[p + 16], ints[p + 19], ints[p + 3]
-    pos = _view3(state, o_scr, B, M, 3)
-    vel = _view3(state, o_scr + B * M * 3, B, M, 3)
-    rotation = _view3(state, o_scr + 2 * B * M * 3, B, M, 3)
+    pos = view3(state, o_scr, B, M, 3)
+    vel = view3(state, o_scr + B * M * 3, B, M, 3)
+    rotation = view3(state, o_scr + 2 * B * M * 3, B, M, 3)
     blades = ints[p + 28:p + 28 + B]
     p += 28 + 2 * B + B * M + B * ne_el + 2 * K + N
     so = o_slopes
@@ -119,7 +103,7 @@ def _stations(ints, p, floats, state, R, vec, q_all, qd_all):
         qe = np.empty(ne)
         for l in range(ne):
             qe[l] = q_all[ints[p + 4 + l]]
-        Gs = _view3(floats, so, M, 3, ne)
+        Gs = view3(floats, so, M, 3, ne)
         so += M * 3 * ne
         p += _point_kinematics(ints, p, floats, R, vec, q_all, qd_all, pos[b], vel[b])
         station_rotations(R[blades[b]], Gs, qe, rotation[b])
@@ -143,7 +127,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     WT, WL = ints[p + 21], ints[p + 22]          # band widths of the transfer and lumping rows
     kept = state[ints[p + 23]:ints[p + 23] + gen.shape[0]]      # the generalised forces of the last call
     rows, o_pts = ints[p + 24], ints[p + 25]          # rows per blade: nodes (N) or load points (M, o_pts > 0)
-    dist = _view3(state, ints[p + 26], B, M, 3)
+    dist = view3(state, ints[p + 26], B, M, 3)
     if held != 0:
         for i in range(gen.shape[0]):
             gen[i] += kept[i]
@@ -154,7 +138,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
     p += 2 * B + B * M
-    elastic = _view2(ints, p, B, ne_el)
+    elastic = view2(ints, p, B, ne_el)
     p += B * ne_el
     near = ints[p:p + K]
     p += K
@@ -163,29 +147,29 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     L_first = ints[p:p + K]
     p += K
     o = o_scr
-    pos = _view3(state, o, B, M, 3)
+    pos = view3(state, o, B, M, 3)
     o += B * M * 3
-    vel = _view3(state, o, B, M, 3)
+    vel = view3(state, o, B, M, 3)
     o += B * M * 3
-    rotation = _view3(state, o, B, M, 3)
+    rotation = view3(state, o, B, M, 3)
     o += B * M * 3
-    en = _view3(state, o, B, M, 3)
+    en = view3(state, o, B, M, 3)
     o += B * M * 3
-    et = _view3(state, o, B, M, 3)
+    et = view3(state, o, B, M, 3)
     o += B * M * 3
-    vn = _view2(state, o, B, M)
+    vn = view2(state, o, B, M)
     o += B * M
-    vt = _view2(state, o, B, M)
+    vt = view2(state, o, B, M)
     o += B * M
-    skew = _view2(state, o, B, M)
+    skew = view2(state, o, B, M)
     o += B * M
-    psi = _view2(state, o, B, M)
+    psi = view2(state, o, B, M)
     o += B * M
-    r_local = _view2(state, o, B, M)
+    r_local = view2(state, o, B, M)
     o += B * M
-    tip_ratio = _view2(state, o, B, M)
+    tip_ratio = view2(state, o, B, M)
     o += B * M
-    section = _view2(state, o, B, M)
+    section = view2(state, o, B, M)
     o += B * M
     c_tip = state[o:o + B * M]
     o += B * M
@@ -193,12 +177,12 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     o += B * M
     vrel = state[o:o + 3]
     o += 3
-    out = _view2(state, o, 13, B * M)
+    out = view2(state, o, 13, B * M)
     o += 13 * B * M
-    forces = _view3(state, o, B, rows, 6)
+    forces = view3(state, o, B, rows, 6)
     o += B * rows * 6
     guess = state[o:o + B * M]
-    A = _view3(floats, o_ref, M, 3, 3)
+    A = view3(floats, o_ref, M, 3, 3)
     for _ in range(B):                # past the blades' point sets (`_stations`)
         p += 4 + ints[p + 2]
     wp = state[0:N_PARAMS]
@@ -217,40 +201,40 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
             c_tip[i] = 0.5 * c[0] * (c[1] - r[i]) / r[i]
             c_hub[i] = 0.5 * c[0] * (r[i] - c[2]) / c[2]
     grid = floats[o_pol:o_pol + G]
-    value = _view2(floats, o_pol + G, 3, PG)
-    slope = _view2(floats, o_pol + G + 3 * PG, 3, PG)
+    value = view2(floats, o_pol + G, 3, PG)
+    slope = view2(floats, o_pol + G + 3 * PG, 3, PG)
     flags = ints[p:p + 7]
     solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
                    c[4], c[5], flags[6], bem_weight(tsr), out, guess)
-    fn = _view2(out[9], 0, B, M)
-    ft = _view2(out[10], 0, B, M)
+    fn = view2(out[9], 0, B, M)
+    ft = view2(out[10], 0, B, M)
     if has_corr != 0:
-        D = _view3(floats, o_corr, M, 3, ne_el)
+        D = view3(floats, o_corr, M, 3, ne_el)
         elastic_correction(fn, ft, en, et, R, blades, D, elastic, kept)
     cm_scale = floats[o_mom]
     if o_pts > 0:
         w = floats[o_pts:o_pts + M]
         wm = floats[o_pts + M:o_pts + 2 * M]
         op = o_pts + 2 * M
-        ow = _view2(floats, op, M, 3)
+        ow = view2(floats, op, M, 3)
         op += 3 * M
-        Dc = _view3(floats, op, M, ne_el, 3)
+        Dc = view3(floats, op, M, ne_el, 3)
         op += 3 * M * ne_el
-        Dg = _view3(floats, op, M, ne_el, 3)
-        point_loads(fn, ft, _view2(out[11], 0, B, M), cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic,
+        Dg = view3(floats, op, M, ne_el, 3)
+        point_loads(fn, ft, view2(out[11], 0, B, M), cm_scale, en, et, R, blades, w, wm, ow, Dc, Dg, elastic,
                     forces, kept)
     else:
-        T = _view2(floats, o_T, N, WT)
+        T = view2(floats, o_T, N, WT)
         distribute(fn, ft, en, et, T, T_first, forces)
         om = o_mom + 1
-        L = _view2(floats, om, K, WL)
+        L = view2(floats, om, K, WL)
         om += K * WL
-        moff = _view2(floats, om, K, 3)
+        moff = view2(floats, om, K, 3)
         om += 3 * K
-        nslopes = _view3(floats, om, N, 3, ne_el)
-        node_moments(fn, ft, _view2(out[11], 0, B, M), cm_scale, en, et, R, blades, L, L_first, near, moff,
+        nslopes = view3(floats, om, N, 3, ne_el)
+        node_moments(fn, ft, view2(out[11], 0, B, M), cm_scale, en, et, R, blades, L, L_first, near, moff,
                      nslopes, elastic, forces, kept)
     for i in range(gen.shape[0]):
         gen[i] += kept[i]
@@ -278,13 +262,13 @@ def _tower(ints, p, floats, state, R, vec, q_all, qd_all):
     if ints[p + 27] == 0:
         return
     B, M, o_scr = ints[p + 1], ints[p + 2], ints[p + 10]
-    stations = _view3(state, o_scr, B, M, 3)
-    dist = _view3(state, ints[p + 26], B, M, 3)
+    stations = view3(state, o_scr, B, M, 3)
+    dist = view3(state, ints[p + 26], B, M, 3)
     p += ints[p + 27]
     potential, shadow, m, o_props, o_tw = ints[p], ints[p + 1], ints[p + 2], ints[p + 3], ints[p + 4]
-    pos = _view2(state, o_tw, m, 3)
-    vel = _view2(state, o_tw + 3 * m, m, 3)
-    wind = _view2(state, o_tw + 6 * m, m, 3)
+    pos = view2(state, o_tw, m, 3)
+    vel = view2(state, o_tw + 3 * m, m, 3)
+    wind = view2(state, o_tw + 6 * m, m, 3)
     _point_kinematics(ints, p + 5, floats, R, vec, q_all, qd_all, pos, vel)
     wp = state[0:N_PARAMS]
     for k in range(m):
@@ -334,12 +318,12 @@ def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
     first = ints[p + 6:p + 6 + rows]
     a = p + 6 + rows
     body, m = ints[a], ints[a + 1]
-    pos = _view2(state, o_scr, m, 3)
-    vel = _view2(state, o_scr + 3 * m, m, 3)
-    line = _view2(state, o_scr + 6 * m, m, 3)
+    pos = view2(state, o_scr, m, 3)
+    vel = view2(state, o_scr + 3 * m, m, 3)
+    line = view2(state, o_scr + 6 * m, m, 3)
     _point_kinematics(ints, a, floats, R, vec, q_all, qd_all, pos, vel)
     drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], line)
-    band = _view2(floats, o_band, rows, width)
+    band = view2(floats, o_band, rows, width)
     for i in range(rows):
         f0 = first[i]
         v0 = v1 = 0.0
@@ -377,7 +361,7 @@ def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state,
         a = p + 2
         if kind == WIND:
             n = ints[a + 1]
-            wind_params(_view2(floats, ints[a], n, 9), floats[ints[a + 2]],
+            wind_params(view2(floats, ints[a], n, 9), floats[ints[a + 2]],
                         floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
         elif kind == AERO:
             if held == 0:
