@@ -6,7 +6,7 @@ the cache warmed by one run first. This floor is paid by every `modesel
 simulate`; issue 12 asks for at most 0.5 s outside integration. Two variants:
 numba alone, whose first call imports the package scipy.linalg (numba's BLAS
 check), and as modesel pays it, with scipy's BLAS module loaded alone before
-(`integrate.load_scipy_blas`, untimed).
+(`blas.load_scipy_blas`, untimed).
 
     python3 benchmarks/numba_floor.py [--repeat 5]
 """
@@ -36,8 +36,8 @@ import numpy
 t1 = time.perf_counter()
 import numba
 t2 = time.perf_counter()
-if BLAS_ALONE:      # as modesel does before numba's first call (integrate.load_scipy_blas), untimed
-    from modesel.multibody.integrate import load_scipy_blas
+if BLAS_ALONE:      # as modesel does before numba's first call (blas.load_scipy_blas), untimed
+    from modesel.multibody.blas import load_scipy_blas
     load_scipy_blas()
 import tiny
 t3 = time.perf_counter()

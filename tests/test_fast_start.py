@@ -20,7 +20,7 @@ DECAY = ROOT / "studies/data/openfast_free_decay/tower_fa_ss_shaft/Spar_ED_ForED
 #: candidate-family command; scipy's integrators and splines, 0.17 s together,
 #: which a compiled run of the deck's shapes does not use; pandas, 0.17 s: the
 #: CSV is written from the result's columns; the package scipy.linalg, 0.15 s:
-#: numba's BLAS module is loaded alone, `integrate.load_scipy_blas`)
+#: numba's BLAS module is loaded alone, `blas.load_scipy_blas`)
 NOT_ON_SIMULATE_PATH = ("optuna", "matplotlib", "sympy", "pandas", "modesel.commands.candidates",
                         "modesel.commands.run", "modesel.multibody.symbolic",
                         "scipy.integrate", "scipy.interpolate", "scipy.linalg")
@@ -71,7 +71,7 @@ def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
     and scipy.linalg imported afterwards works and hands out the same module."""
     code = (
         "import sys, numpy as np, numba\n"
-        "from modesel.multibody.integrate import load_scipy_blas\n"
+        "from modesel.multibody.blas import load_scipy_blas\n"
         "blas = load_scipy_blas()\n"
         "alone = 'scipy.linalg' not in sys.modules\n"
         "dot = numba.njit(lambda a, b: np.dot(a, b))\n"

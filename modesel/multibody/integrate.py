@@ -35,7 +35,7 @@ BLAS threads: the kernel's small matrix products (a few hundred rows) call
 the BLAS of numpy/scipy, whose worker threads only add synchronisation at
 these sizes (a 41-DOF right-hand side took 40-100 ms instead of 0.3 ms on
 a loaded 2-core machine); `integrate` runs with one BLAS thread
-(`single_thread_blas`) and restores the previous count.
+(`blas.single_thread_blas`) and restores the previous count.
 
 Divergence detection: non-finite accelerations, states beyond physical bounds
 (elastic tip displacement above half the beam length, rigid rates above
@@ -44,13 +44,13 @@ Divergence detection: non-finite accelerations, states beyond physical bounds
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from modesel.errors import ModeselError, SimulationDiverged
 from modesel.multibody import dop853_tableau, kernel
+from modesel.multibody.blas import single_thread_blas
 from modesel.multibody.compiled import CompiledRHS
 
 COMPILED_DOP853 = "compiled-DOP853"
@@ -161,97 +161,6 @@ def choose_method(omegas: np.ndarray, requested: str = "auto", rhs=None, rtol=No
     if ratio >= STIFF_RATIO:
         return (COMPILED_RADAU if compiled else "Radau"), ratio
     return explicit_method(rtol, compiled, kinked), ratio
-
-
-def load_scipy_blas():
-    """scipy's BLAS module `scipy.linalg.cython_blas`, whose function pointers
-    numba's matrix products call (numba imports it when it builds its target
-    context, `numba.np.linalg.ensure_blas`). Where it is not loaded yet, it is
-    loaded from its extension file alone and entered in `sys.modules` under
-    its own name: the package `scipy.linalg` around it would cost a
-    simulation about 0.15 s of start-up (its array-API layer clones numpy's
-    namespace, which imports numpy.f2py) and the engine needs none of it.
-    `import scipy.linalg` later still works; `import scipy.linalg.cython_blas`
-    and `from scipy.linalg import cython_blas` (numba's and scipy's Cython
-    modules import it so) give this module, only the attribute
-    `scipy.linalg.cython_blas` stays unset. Where the file cannot be found or
-    loaded, the package is imported as usual."""
-    import importlib.machinery
-    import importlib.util
-    import os
-    import sys
-
-    name = "scipy.linalg.cython_blas"
-    if name in sys.modules:
-        return sys.modules[name]
-    if "scipy.linalg" in sys.modules:         # the package is there already: the usual import is cheap
-        import scipy.linalg.cython_blas
-        return sys.modules[name]
-    try:
-        import scipy
-
-        folder = os.path.join(os.path.dirname(scipy.__file__), "linalg")
-        path = next(p for suffix in importlib.machinery.EXTENSION_SUFFIXES
-                    if os.path.isfile(p := os.path.join(folder, "cython_blas" + suffix)))
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-        return module
-    except Exception:
-        sys.modules.pop(name, None)
-        import scipy.linalg.cython_blas
-        return sys.modules[name]
-
-
-@functools.lru_cache(maxsize=1)
-def _blas_thread_controls():
-    """(get, set) ctypes functions of each OpenBLAS loaded in this process
-    (numpy's and scipy's; numba's matrix products call scipy's), found in
-    /proc/self/maps once (after scipy's BLAS is loaded); empty where that
-    does not exist."""
-    import ctypes
-
-    try:
-        with open("/proc/self/maps") as fh:
-            libs = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ".so" in ln})
-    except OSError:
-        return []
-    out = []
-    for path in libs:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for suffix in ("", "64_", "_64_"):
-            names = [f"{pre}openblas_{{}}_num_threads{suffix}" for pre in ("scipy_", "")]
-            found = [(getattr(lib, nm.format("get"), None), getattr(lib, nm.format("set"), None))
-                     for nm in names]
-            found = [(g, st) for g, st in found if g is not None and st is not None]
-            if found:
-                get, set_ = found[0]
-                get.restype, get.argtypes = ctypes.c_int, []
-                set_.restype, set_.argtypes = None, [ctypes.c_int]
-                out.append((get, set_))
-                break
-    return out
-
-
-class single_thread_blas:
-    """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
-
-    def __enter__(self):
-        load_scipy_blas()     # the BLAS numba's matrix products call, loaded before looking for it
-
-        self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
-        for _, set_ in self._saved:
-            set_(1)
-        return self
-
-    def __exit__(self, *exc):
-        for count, set_ in self._saved:
-            set_(count)
-        return False
 
 
 def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=None, max_step=np.inf,

@@ -47,6 +47,12 @@ import numpy as np
 from numba import njit, types
 from numba.core.errors import NumbaExperimentalFeatureWarning
 
+from modesel.multibody.blas import load_scipy_blas
+
+# scipy's BLAS module loaded alone before numba's target first compiles or loads
+# (`view2` below compiles at import): else numba imports the package scipy.linalg
+load_scipy_blas()
+
 # the loads function is a first-class function argument (one compiled loop for
 # every scene, cached on disk); numba calls the feature experimental
 warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)

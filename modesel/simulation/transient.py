@@ -10,7 +10,8 @@ from modesel.errors import ModeselError, SimulationDiverged
 from modesel.modeset import ModeSet
 from modesel.model.outputs import (channel_unit, channels, needs_reaction_forces, requested_channels,
                                    switched_off_dofs, wind_channels, with_aliases)
-from modesel.multibody.integrate import choose_method, default_tolerances, integrate, single_thread_blas
+from modesel.multibody.blas import single_thread_blas
+from modesel.multibody.integrate import choose_method, default_tolerances, integrate
 from modesel.multibody.linearize import eigenvalues, linearize, spectrum
 from modesel.simulation import first_run
 from modesel.simulation.assembly import Built, build
@@ -60,7 +61,7 @@ def simulate(scene: Scene, modeset: ModeSet | None = None, *, tmax: float | None
     prefixes, ElastoDyn's other names; `outputs.requested_channels`):
     effect channels, reaction loads, gauges and tip motions not named are
     left out (`outputs.channels`; about one right-hand side per output time).
-    Runs with one BLAS thread (`integrate.single_thread_blas`)."""
+    Runs with one BLAS thread (`blas.single_thread_blas`)."""
     with single_thread_blas():
         return _simulate(scene, modeset, tmax, dt, progress, channels)
 
