@@ -248,7 +248,7 @@ class BladeAerodynamics(Effect):
     @property
     def tower_influence(self) -> bool:
         """Whether the blades' wind has the tower's influence (module doc 2; its
-        compiled loads are then `effects.compiled_tower`'s)."""
+        compiled loads are then `effects.compiled.tower_loads()`)."""
         return self.tower is not None
 
     def _tower_influence(self, built, deck):

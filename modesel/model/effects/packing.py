@@ -26,7 +26,7 @@ class Packer:
         self.n_state = CHANNEL_FLAG + 1
         self.initial = {}
         self.channels = {}
-        #: a record needs the tower influence's code (`compiled_tower`)
+        #: a record needs the tower influence's code (`effects.compiled.tower_loads()`)
         self.tower_influence = False
 
     def add(self, array) -> int:
