@@ -12,13 +12,15 @@ compile time (30 s to 66 s on 2 cores). Called through a pointer, it is
 compiled once, when this module is first imported (`packing` imports it
 for a system that uses it; `simulation.first_run` compiles it beside the
 kernel). It reads everything from its arguments (no layout constant of the
-kernel), so that its compiled code depends on this file alone.
+kernel) but for the array views `kernel.view2`/`view3`/`view4` (one compiled
+reshape each, instead of numba's reshape and its shape-error path compiled at
+each of 32 sites).
 """
 from __future__ import annotations
 
 from numba import cfunc, njit
 
-from modesel.multibody.kernel import INVARIANT_SIG
+from modesel.multibody.kernel import INVARIANT_SIG, view2, view3, view4
 
 
 @njit(cache=True)
@@ -73,8 +75,8 @@ def invariant_sums(head, loaded, ipool, fpool, scr, fnodes):
     pos = ipool[head + 6 + ns:head + 6 + ns + ne]
     # inputs and outputs at the start of scr (IO_FLOATS, the kernel's layout)
     so = 0
-    R, so = _take(scr, so, 9)
-    R = R.reshape((3, 3))
+    R = view2(scr, so, 3, 3)
+    so += 9
     w, so = _take(scr, so, 3)
     al, so = _take(scr, so, 3)
     ab, so = _take(scr, so, 3)
@@ -85,85 +87,85 @@ def invariant_sums(head, loaded, ipool, fpool, scr, fnodes):
     mp, so = _take(scr, so, 3)
     ft, so = _take(scr, so, 3)
     fr, so = _take(scr, so, 3)
-    Irr, so = _take(scr, so, 9)
-    Irr = Irr.reshape((3, 3))
-    Ct, so = _take(scr, so, 3 * ne)
-    Ct = Ct.reshape((3, ne))
-    Cr, so = _take(scr, so, 3 * ne)
-    Cr = Cr.reshape((3, ne))
+    Irr = view2(scr, so, 3, 3)
+    so += 9
+    Ct = view2(scr, so, 3, ne)
+    so += 3 * ne
+    Cr = view2(scr, so, 3, ne)
+    so += 3 * ne
     fe, so = _take(scr, so, ne)
-    Mee, so = _take(scr, so, ne * ne)
-    Mee = Mee.reshape((ne, ne))
+    Mee = view2(scr, so, ne, ne)
+    so += ne * ne
     fk, so = _take(scr, so, 3)
     # the invariants (body_integrals.BLOCKS, in order)
     o = inv0
     mass = fpool[o]
     o += 1
     ms0, o = _take(fpool, o, 3)
-    mPhi, o = _take(fpool, o, 3 * ne)
-    mPhi = mPhi.reshape((3, ne))
-    mS, o = _take(fpool, o, ns * ns)
-    mS = mS.reshape((ns, ns))
-    Js0, o = _take(fpool, o, 9)
-    Js0 = Js0.reshape((3, 3))
-    Xs0P, o = _take(fpool, o, 9 * ne)
-    Xs0P = Xs0P.reshape((3, 3, ne))
-    XPP, o = _take(fpool, o, 9 * ne * ne)
-    XPP = XPP.reshape((3, ne, 3, ne))
-    P0, o = _take(fpool, o, ne * ne)
-    P0 = P0.reshape((ne, ne))
-    K1, o = _take(fpool, o, 3 * ne * ne)
-    K1 = K1.reshape((3, ne, ne))
-    Ys0S, o = _take(fpool, o, 3 * ns * ns)
-    Ys0S = Ys0S.reshape((3, ns, ns))
-    YPS, o = _take(fpool, o, 3 * ne * ns * ns)
-    YPS = YPS.reshape((3, ne, ns, ns))
-    ZSS, o = _take(fpool, o, ns * ns * ns * ns)
-    ZSS = ZSS.reshape((ns, ns, ns, ns))
+    mPhi = view2(fpool, o, 3, ne)
+    o += 3 * ne
+    mS = view2(fpool, o, ns, ns)
+    o += ns * ns
+    Js0 = view2(fpool, o, 3, 3)
+    o += 9
+    Xs0P = view3(fpool, o, 3, 3, ne)
+    o += 9 * ne
+    XPP = view4(fpool, o, 3, ne, 3, ne)
+    o += 9 * ne * ne
+    P0 = view2(fpool, o, ne, ne)
+    o += ne * ne
+    K1 = view3(fpool, o, 3, ne, ne)
+    o += 3 * ne * ne
+    Ys0S = view3(fpool, o, 3, ns, ns)
+    o += 3 * ns * ns
+    YPS = view4(fpool, o, 3, ne, ns, ns)
+    o += 3 * ne * ns * ns
+    ZSS = view4(fpool, o, ns, ns, ns, ns)
+    o += ns * ns * ns * ns
     Jsum = fpool[o]
     o += 1
     Jeta, o = _take(fpool, o, ne)
-    Jee, o = _take(fpool, o, ne * ne)
-    Jee = Jee.reshape((ne, ne))
+    Jee = view2(fpool, o, ne, ne)
+    o += ne * ne
     # scratch after the inputs and outputs
     qs, so = _take(scr, so, ns)
     qds, so = _take(scr, so, ns)
-    Zq, so = _take(scr, so, ns * ns * ns)
-    Zq = Zq.reshape((ns, ns, ns))
-    ZV, so = _take(scr, so, ns * ns)
-    ZV = ZV.reshape((ns, ns))
-    ZQ, so = _take(scr, so, ns * ns)
-    ZQ = ZQ.reshape((ns, ns))
+    Zq = view3(scr, so, ns, ns, ns)
+    so += ns * ns * ns
+    ZV = view2(scr, so, ns, ns)
+    so += ns * ns
+    ZQ = view2(scr, so, ns, ns)
+    so += ns * ns
     ZD, so = _take(scr, so, ns)
     cv, so = _take(scr, so, ns)
     vbar, so = _take(scr, so, ns)
-    V0, so = _take(scr, so, 3 * ns)
-    V0 = V0.reshape((ns, 3))
-    VP, so = _take(scr, so, 3 * ne * ns)
-    VP = VP.reshape((3, ne, ns))
-    VPq, so = _take(scr, so, 3 * ns)
-    VPq = VPq.reshape((3, ns))
-    sv, so = _take(scr, so, 3 * ns)
-    sv = sv.reshape((3, ns))
-    aVP, so = _take(scr, so, ne * ns)
-    aVP = aVP.reshape((ne, ns))
-    uVP, so = _take(scr, so, ne * ns)
-    uVP = uVP.reshape((ne, ns))
-    CPhi, so = _take(scr, so, 3 * ne)
-    CPhi = CPhi.reshape((3, ne))
-    DPhi, so = _take(scr, so, 3 * ne)
-    DPhi = DPhi.reshape((3, ne))
-    XPq, so = _take(scr, so, 9 * ne)
-    XPq = XPq.reshape((3, ne, 3))
-    H, so = _take(scr, so, 9 * ne)
-    H = H.reshape((3, 3, ne))
-    wK1, so = _take(scr, so, ne * ne)
-    wK1 = wK1.reshape((ne, ne))
-    m33, so = _take(scr, so, 45)
-    m33 = m33.reshape((5, 3, 3))
+    V0 = view2(scr, so, ns, 3)
+    so += 3 * ns
+    VP = view3(scr, so, 3, ne, ns)
+    so += 3 * ne * ns
+    VPq = view2(scr, so, 3, ns)
+    so += 3 * ns
+    sv = view2(scr, so, 3, ns)
+    so += 3 * ns
+    aVP = view2(scr, so, ne, ns)
+    so += ne * ns
+    uVP = view2(scr, so, ne, ns)
+    so += ne * ns
+    CPhi = view2(scr, so, 3, ne)
+    so += 3 * ne
+    DPhi = view2(scr, so, 3, ne)
+    so += 3 * ne
+    XPq = view3(scr, so, 3, ne, 3)
+    so += 9 * ne
+    H = view3(scr, so, 3, 3, ne)
+    so += 9 * ne
+    wK1 = view2(scr, so, ne, ne)
+    so += ne * ne
+    m33 = view3(scr, so, 5, 3, 3)
+    so += 45
     J, A1, A2, Hq = m33[0], m33[1], m33[2], m33[3]
-    v3, so = _take(scr, so, 30)
-    v3 = v3.reshape((10, 3))
+    v3 = view2(scr, so, 10, 3)
+    so += 30
     c_s0, d_s0, cPq, dPq, gma, Ctq, Jw, u, t1 = v3[0], v3[1], v3[2], v3[3], v3[4], v3[5], v3[6], v3[7], v3[8]
     for x in range(ns):
         qs[x] = qe[sidx[x]]

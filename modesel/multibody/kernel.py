@@ -141,6 +141,12 @@ def view3(a, offset, n0, n1, n2):
     return a[offset:offset + n0 * n1 * n2].reshape((n0, n1, n2))
 
 
+@njit(["float64[:, :, :, ::1](float64[::1], int64, int64, int64, int64, int64)"], cache=True)
+def view4(a, offset, n0, n1, n2, n3):
+    """a[offset:offset + n0 n1 n2 n3] as an (n0, n1, n2, n3) array (`view2`)."""
+    return a[offset:offset + n0 * n1 * n2 * n3].reshape((n0, n1, n2, n3))
+
+
 @njit(cache=True)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
