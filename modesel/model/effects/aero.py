@@ -387,17 +387,20 @@ class BladeAerodynamics(Effect):
             packer.channel(name, o_ch + k)
         o_gen = packer.scratch(built.eq.n_all)        # the generalised forces, kept for held loads
         o_dist = packer.scratch(B * M * 3)            # the tower's influence at the stations (zeros without)
-        # the header's last int: where the tower influence's ints start in the record (0: none)
+        # the header's last three ints: where the tower influence's ints (0: none), the
+        # stations' point sets and the BEM flags start in the record
         ints = [self.hub, B, M, N, o_const, o_elem, o_T, o_pol, grid.size, value.shape[1], o_scr,
                 o_ref, o_slopes, o_loss, int(static_loss), o_corr, ne_el, int(has_corr), o_mom, K, o_ch,
-                T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts, o_dist, 0]
-        tower_at = len(ints) - 1
+                T_band.shape[1], L_band.shape[1], o_gen, rows, o_pts, o_dist, 0, 0, 0]
+        tower_at, stations_at, flags_at = len(ints) - 3, len(ints) - 2, len(ints) - 1
         first = [lp.first for lp in points] if at_points else [packed.node_rows(n)[0] for n in self.names]
         ints += list(self.blades) + first + list(buf.offset.ravel())
         ints += list(np.asarray(self.elastic, np.int64).ravel()) + list(self.near)
         ints += list(T_first) + list(L_first)
+        ints[stations_at] = len(ints)
         for st in self.stations:
             ints += point_set_ints(packer, st)
+        ints[flags_at] = len(ints)
         ints += [o.tip_loss, o.hub_loss, o.tangential_induction, o.axial_drag, o.tangential_drag,
                  o.skew_correction, o.max_iterations]
         # the points of the loads, read only for the channels (`compiled._rotor_channels`)

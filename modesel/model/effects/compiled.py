@@ -91,12 +91,11 @@ def _stations(ints, p, floats, state, R, vec, q_all, qd_all):
     """The blade stations' positions, velocities and section rotations (effects/aero.py
     `BladeAerodynamics.__call__`, step 1) into the aero record's scratch (`_aero`)."""
     B, M, o_scr, o_slopes = ints[p + 1], ints[p + 2], ints[p + 10], ints[p + 12]
-    ne_el, K, N = ints[p + 16], ints[p + 19], ints[p + 3]
     pos = view3(state, o_scr, B, M, 3)
     vel = view3(state, o_scr + B * M * 3, B, M, 3)
     rotation = view3(state, o_scr + 2 * B * M * 3, B, M, 3)
-    blades = ints[p + 28:p + 28 + B]
-    p += 28 + 2 * B + B * M + B * ne_el + 2 * K + N
+    blades = ints[p + 30:p + 30 + B]
+    p += ints[p + 28]                 # the stations' point sets
     so = o_slopes
     for b in range(B):
         ne = ints[p + 2]
@@ -133,7 +132,8 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
             gen[i] += kept[i]
         return
     kept[:] = 0.0
-    p += 28
+    flags_at = p + ints[p + 29]       # the BEM flags, after the stations' point sets (`_stations`)
+    p += 30
     blades = ints[p:p + B]
     starts = ints[p + B:p + 2 * B]
     offset = ints[p + 2 * B:p + 2 * B + B * M]
@@ -145,7 +145,6 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     T_first = ints[p:p + N]
     p += N
     L_first = ints[p:p + K]
-    p += K
     o = o_scr
     pos = view3(state, o, B, M, 3)
     o += B * M * 3
@@ -183,8 +182,6 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     o += B * rows * 6
     guess = state[o:o + B * M]
     A = view3(floats, o_ref, M, 3, 3)
-    for _ in range(B):                # past the blades' point sets (`_stations`)
-        p += 4 + ints[p + 2]
     wp = state[0:N_PARAMS]
     tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, section,
                  r_local, tip_ratio, vrel)
@@ -203,7 +200,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     grid = floats[o_pol:o_pol + G]
     value = view2(floats, o_pol + G, 3, PG)
     slope = view2(floats, o_pol + G + 3 * PG, 3, PG)
-    flags = ints[p:p + 7]
+    flags = ints[flags_at:flags_at + 7]
     solve_elements(r, vn.ravel(), vt.ravel(), theta, chord, offset, skew.ravel(), psi.ravel(),
                    tip_ratio.ravel(), c_tip, c_hub, grid, value, slope, c[0], c[3],
                    flags[0] != 0, flags[1] != 0, flags[2] != 0, flags[3] != 0, flags[4] != 0, flags[5] != 0,
@@ -248,7 +245,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
         r_max = r[0]
         for i in range(1, B * M):
             r_max = max(r_max, r[i])
-        _rotor_channels(ints, p + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r_max, vrel, tsr,
+        _rotor_channels(ints, flags_at + 7, floats, R, vec, q_all, qd_all, forces, hub, c[3], r_max, vrel, tsr,
                         skew[0, 0], state[o_ch:o_ch + 15])
 
 
