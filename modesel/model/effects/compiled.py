@@ -26,6 +26,8 @@ the records write into state slots (`Packer.channel`).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import cfunc, njit
 
@@ -395,15 +397,11 @@ def _effect_loads_tower(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floa
     return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True)
 
 
-_TOWER_LOADS = []
-
-
+@functools.lru_cache(maxsize=1)
 def tower_loads():
     """The cfunc (`kernel.LOADS_SIG`) of the loads with AeroDyn's tower influence
     on the blades' wind (`_effect_loads_tower`), compiled on the first call in
     a process (from numba's cache after the first run), so that its code
     (`_tower`, `aero.tower_influence`) stays out of `effect_loads`, which
     every scene with effects compiles on its first run."""
-    if not _TOWER_LOADS:
-        _TOWER_LOADS.append(cfunc(LOADS_SIG, cache=True)(_effect_loads_tower))
-    return _TOWER_LOADS[0]
+    return cfunc(LOADS_SIG, cache=True)(_effect_loads_tower)
