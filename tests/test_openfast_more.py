@@ -30,6 +30,10 @@ tolerances:
   YawNeut 0, YCMode 0; the `yaw` effect; refused before): NRMSE over the
   40 s <= 2 % on NacYaw, TTDspSS, TTDspFA, OoPDefl1, RotSpeed, and the
   means of the last 20 s as above;
+- yaw_error_15: steady_11p4 with the nacelle held 15 deg out of the wind
+  (YawDOF off): the skewed wake's Pitt/Peters redistribution, means over the
+  last 20 s as above (TTDspSS and RtSkew 1 %), std of OoPDefl1, IPDefl1,
+  RootMyc1 and TTDspSS within 10 %, NRMSE <= 2 %;
 - ElastoDyn's reaction loads (forces and moments at the tower base, the yaw
   bearing in the tower-top frame p, the blade roots in the coned frame c and
   the pitched frame b): NRMSE over the run <= 1 % on parked_storm (pitch
@@ -192,6 +196,31 @@ def test_yaw_release_matches_openfast():
     assert all(abs(v) <= MEAN_TOLERANCES[c] for c, v in means.items()), text
     assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
     assert nrmse(out, ref, "YawMom") <= 1e-3, text
+
+
+def test_sustained_yaw_error_matches_openfast():
+    """yaw_error_15: the nacelle held 15 deg out of the 11.4 m/s wind. The
+    skewed wake's Pitt/Peters redistribution of the axial induction sets the
+    blades' 1P flapping: run with SkewRedistr_Mod 0 (no redistribution),
+    modesel missed std OoPDefl1 by -60 % and std RootMyc1 by -49 %, NRMSE
+    OoPDefl1 4.3 %, IPDefl1 3.9 % and mean TTDspSS +2.9 % (session 25)."""
+    out, ref = run("yaw_error_15")
+    tmax = float(ref.Time.iloc[-1])
+    assert out.Time.iloc[-1] == pytest.approx(tmax)
+    a, b = (f[f.Time >= tmax - 20.0 - 1e-9] for f in (out, ref))
+    assert 15.0 < b.RtSkew.mean() < 17.0          # the case is what it says: the wake skewed by the yaw error
+    tolerances = dict(MEAN_TOLERANCES, TTDspSS=0.01, RtSkew=0.01)
+    means = {c: a[c].mean() / b[c].mean() - 1 for c in tolerances}
+    stds = {c: a[c].std() / b[c].std() - 1 for c in ("OoPDefl1", "IPDefl1", "RootMyc1", "TTDspSS")}
+    errs = {c: nrmse(out, ref, c) for c in ("RotSpeed", "TTDspFA", "TTDspSS", "OoPDefl1", "IPDefl1", "RootMyc1",
+                                            "TwrBsMxt")}
+    text = (", ".join(f"mean {c} {v:+.2%}" for c, v in means.items()) + "; "
+            + ", ".join(f"std {c} {v:+.1%}" for c, v in stds.items()) + "; "
+            + ", ".join(f"NRMSE {c} {v:.2%}" for c, v in errs.items()))
+    print(f"\nyaw_error_15: {text}")
+    assert all(abs(v) <= tolerances[c] for c, v in means.items()), text
+    assert all(abs(v) <= STD_TOLERANCE for v in stds.values()), text
+    assert all(v <= NRMSE_TOLERANCE for v in errs.values()), text
 
 
 #: ElastoDyn's reaction loads each case's reduced reference holds besides its other channels
