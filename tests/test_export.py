@@ -398,16 +398,16 @@ def test_openfast_case_is_complete_and_names_the_new_elastodyn(tmp_path, capsys)
 
 
 def test_openfast_case_with_what_modesel_does_not_simulate(tmp_path, capsys):
-    """Only the case's ElastoDyn part is read: a case with turbulent wind
-    (InflowWind WindType 3, which `modesel simulate` refuses) is exported for
-    OpenFAST unchanged, its InflowWind file copied as it is."""
+    """Only the case's ElastoDyn part is read: a case with turbulent wind from a
+    Bladed-style file (InflowWind WindType 4, which `modesel simulate` refuses)
+    is exported for OpenFAST unchanged, its InflowWind file copied as it is."""
     import shutil
     src = tmp_path / "src"
     shutil.copytree(STEADY.parent.parent, src)
     iw = src / "steady_11p4" / "steady_11p4_InflowWind.dat"
     text = iw.read_text()
     line = next(ln for ln in text.splitlines() if "WindType" in ln.split()[1:2])
-    iw.write_text(text.replace(line, "          3   WindType       - turbulent full-field wind (edited)"))
+    iw.write_text(text.replace(line, "          4   WindType       - Bladed-style full-field wind (edited)"))
     fst = src / "steady_11p4" / "steady_11p4.fst"
     from modesel.simulation.api import load_scene
     with pytest.raises(ModeselError, match="WindType"):
@@ -416,7 +416,7 @@ def test_openfast_case_with_what_modesel_does_not_simulate(tmp_path, capsys):
     assert main(["export", ms, "--case", str(fst), "--openfast", str(tmp_path / "o")]) == 0
     assert "OpenFAST case written" in capsys.readouterr().out
     copied = next((tmp_path / "o").rglob("steady_11p4_InflowWind.dat"))
-    assert "3   WindType" in copied.read_text()
+    assert "4   WindType" in copied.read_text()
 
 
 @pytest.mark.parametrize("fields, reason", [

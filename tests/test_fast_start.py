@@ -505,18 +505,18 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     assert not first_run.compile_in_parallel(bare) and not spawned
     assert first_run.compile_in_parallel(windy)
     assert f"import {first_run.LOADS_MODULE}" in spawned[0] and spawned[1] == ("here", ("runge_kutta",))
-    assert "tower_loads()" not in spawned[0]
+    assert "loads_function(" not in spawned[0]
     # AeroDyn's tower influence: its loads (a second cfunc) compile in the child too, and
     # only for a scene that has it, also once the loads without it are cached
     tower = build(load_scene(ROOT / "tests" / "data" / "openfast_more" / "tower_potential" / "tower_potential.fst"))
     spawned.clear()
     assert first_run.compile_in_parallel(tower)
-    assert f"import {first_run.LOADS_MODULE}; {first_run.LOADS_MODULE}.tower_loads();" in spawned[0]
+    assert f"import {first_run.LOADS_MODULE}; {first_run.LOADS_MODULE}.loads_function(True, False);" in spawned[0]
     cached.add((first_run.LOADS_MODULE, None))
     spawned.clear()
     assert not first_run.compile_in_parallel(windy) and not spawned
-    assert first_run.compile_in_parallel(tower) and "tower_loads()" in spawned[0]
-    cached.add((first_run.LOADS_MODULE, first_run.TOWER_LOADS))
+    assert first_run.compile_in_parallel(tower) and "loads_function(True, False)" in spawned[0]
+    cached.add((first_run.LOADS_MODULE, first_run.LOADS_VARIANTS[True, False]))
     spawned.clear()
     assert not first_run.compile_in_parallel(tower) and not spawned
     # the right-hand side's cfunc is cached under the function it compiles (numba's naming)

@@ -241,7 +241,7 @@ UNSUPPORTED = [
     ("steady_08_ServoDyn.dat", "HSSBrMode", "1", "HSS brake"),
     ("steady_08_ServoDyn.dat", "YCMode", "5", "yaw control"),
     ("steady_08_ServoDyn.dat", "TPitManS(1)", "50.0", "pitch manoeuvre"),
-    ("steady_08_InflowWind.dat", "WindType", "3", "steady"),
+    ("steady_08_InflowWind.dat", "WindType", "4", "TurbSim full field"),
     ("../common/NREL5MW_AD_v5.dat", "UA_Mod", "3", "unsteady airfoil"),
     ("../common/NREL5MW_AD_v5.dat", "DBEMT_Mod", "1", "dynamic inflow"),
     ("../common/NREL5MW_AD_v5.dat", "Wake_Mod", "3", "quasi-steady BEMT"),

@@ -85,6 +85,47 @@ def wind_profile(rng):
     return out
 
 
+def random_full_field(rng, periodic=False):
+    """A TurbSim field of random velocities (11 x 9 points, 3 tower points, 60 steps), written and read back."""
+    from modesel.aero.full_field import read_turbsim, write_turbsim
+    nt, nz, ny = 60, 9, 11
+    grid = rng.normal(0.0, 1.0, (nt, nz, ny, 3)) + [10.0, 0.0, 0.0]
+    tower = rng.normal(0.0, 1.0, (nt, 3, 3)) + [8.0, 0.0, 0.0]
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "field.bts"
+        write_turbsim(path, grid, tower, 14.0, 15.0, 0.3, 10.0, 90.0, 30.0, periodic=periodic)
+        return read_turbsim(path)
+
+
+@twin("full_field")
+def full_field(rng):
+    """InflowWind's TurbSim full field: aero.full_field.FullField.velocity (numpy) /
+    grid_velocity through wind_velocity (numba), in the grid, on the tower points, from
+    them to the ground and across a periodic file's wrap; the tower drag in it:
+    aero.TowerDrag.load of Wind.vector (numpy) / drag_forces (numba)."""
+    out = []
+    for periodic in (False, True):
+        field = random_full_field(rng, periodic)
+        wind = Wind(full_field=field)
+        n = 300
+        x = rng.uniform(-10.0, 10.0, n)
+        y = rng.uniform(-field.half_width, field.half_width, n)
+        z = np.concatenate([rng.uniform(field.grid_base, field.top, n - 60), rng.uniform(-5.0, field.grid_base, 60)])
+        for t in (0.0, 2.1, 9.35) + ((12.5, 17.9) if periodic else ()):
+            p = wind.params(t)
+            compiled = np.array([wind_velocity(p, xk, yk, zk) for xk, yk, zk in zip(x, y, z)])
+            out.append((f"V(t={t}, periodic={periodic})", wind.vector(z, t, x, y), compiled))
+    drag = read_aerodyn(AD_FILE).tower
+    m, rho = 40, 1.225
+    pos = np.column_stack([rng.normal(0.0, 0.5, (m, 2)), rng.uniform(-2.0, 95.0, m)])
+    vel = rng.normal(0.0, 3.0, (m, 3))
+    reference = drag.load(pos[:, 2], wind.vector(pos[:, 2], 1.7, pos[:, 0], pos[:, 1]), vel, rho)
+    forces = np.empty((m, 3))
+    drag_forces(pos, vel, wind.params(1.7), drag.coefficient(pos[:, 2], rho), forces, True)
+    out.append(("tower drag in the full field", reference, forces))
+    return out
+
+
 @twin("tower_drag")
 def tower_drag(rng):
     """Eq. 51 with shear: aero.TowerDrag.load (numpy) / aero.tower_drag.drag_forces (numba)."""

@@ -10,6 +10,10 @@ airfoil `PolarSet`, air density, `BemOptions`, tower table) is read by
 - `steady_rotor(U, Omega, pitch, deck, ...)`: thrust, torque, power, C_P, C_T, C_Q.
 - `Wind`: InflowWind's uniform wind, steady or tabulated in time
   (`Wind.vector`, compiled twin `wind.wind_velocity`).
+- `full_field.read_turbsim(path)` -> `FullField`: InflowWind's TurbSim full
+  field (WindType 3; `FullField.velocity`, compiled twin
+  `full_field.grid_velocity`, which `Wind(full_field=...)` feeds to
+  `wind.wind_velocity`).
 - `TowerDrag.load(z, v_wind, v_tower)`: tower drag per unit length (eq. 51)
   (compiled twin `tower_drag.drag_forces`).
 - `TowerInfluence.velocity(points, ...)`: AeroDyn's tower potential flow and

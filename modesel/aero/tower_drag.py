@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from modesel.aero.wind import wind_velocity
+from modesel.aero.wind import wind_at
 from modesel.errors import ModeselError
 
 
@@ -98,16 +98,17 @@ class TowerDrag:
 
 
 @njit(cache=True)
-def drag_forces(pos, vel, wp, coef, out):
+def drag_forces(pos, vel, wp, coef, out, field=None):
     """Compiled twin of `TowerDrag.load` for 3-vectors at points k (eq. 51):
     out_k = coef_k |v_rel| v_rel, v_rel the horizontal wind at the point
     (`aero.wind.wind_velocity`, parameters wp = `Wind.params(t)`) minus the
     point's horizontal velocity vel[k] [m/s]; out[k, 2] = 0 (AeroDyn's TwrAero
     load, ADTwr_CalcOutput: the components normal to the tower). With
     coef_k = `TowerDrag.coefficient` times a length [m] the result is a force
-    [N] (per unit length [N/m] without)."""
+    [N] (per unit length [N/m] without). field None: uniform wind only
+    (`aero.wind.wind_at`)."""
     for k in range(pos.shape[0]):
-        u0, u1, _ = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+        u0, u1, _ = wind_at(wp, pos[k, 0], pos[k, 1], pos[k, 2], field)
         v0 = u0 - vel[k, 0]
         v1 = u1 - vel[k, 1]
         s = coef[k] * np.sqrt(v0 * v0 + v1 * v1)

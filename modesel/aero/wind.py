@@ -21,6 +21,11 @@ InflowWind's (`UniformField_GetVel` is called for z > 0 only): z <= GROUND,
 1 nm, so that a point placed on the ground (AeroDyn's tower station at
 TwrElev 0), which the kinematics put at 2e-15 m, is on it.
 
+A full field (InflowWind WindType 3, a TurbSim file: `aero.full_field`)
+replaces the table: `params(t)` is then the field packed after the
+uniform parameters, with its time slot set to t, and `wind_velocity` reads
+it (`GRID_SLOT` holds where it starts; 0 for uniform wind).
+
 The short form of a scene's [effects.wind] (`speed`, `shear`,
 `direction` from x towards +y, `time_series` of (t, speed)) is the table
 with AngleH = -direction. alpha = 0.2 gives the IEC 61400-1 normal wind
@@ -31,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from modesel.aero.full_field import grid_velocity
 from modesel.errors import ModeselError
 
 #: height [m] at or below which a point is on the ground (module doc)
@@ -40,6 +46,9 @@ GROUND = 1e-9
 COLUMNS = ("Time", "VelH", "AngleH", "VelV", "ShrH", "ShrV", "LinShrV", "VelGust", "AngleV")
 #: layout of `Wind.params(t)`
 N_PARAMS = 12
+#: params[GRID_SLOT] > 0: a full field packed from that index (module doc); the
+#: slot between (N_PARAMS) is the compiled loads' channel flag (`effects.packing`)
+GRID_SLOT = N_PARAMS + 1
 
 
 class Wind:
@@ -53,11 +62,16 @@ class Wind:
     table : (N, 8 or 9) uniform-wind table in `COLUMNS` order (angles in rad);
         replaces speed, shear, time_series and direction.
     reference_length : RefLength [m] of the linear shears.
+    full_field : an `aero.full_field.FullField` (TurbSim); replaces the
+        uniform wind (speed etc. then describe its hub-height mean).
     """
 
     def __init__(self, speed: float = 0.0, shear_exponent: float = 0.0,
                  reference_height: float = 90.0, time_series=None, direction: float = 0.0,
-                 table=None, reference_length: float = 1.0):
+                 table=None, reference_length: float = 1.0, full_field=None):
+        self.full_field = full_field
+        if full_field is not None:
+            speed, table, time_series = full_field.mean_speed, None, None
         if reference_height <= 0:
             raise ModeselError(f"reference height must be > 0, got {reference_height}",
                                field="reference_height")
@@ -100,6 +114,10 @@ class Wind:
         self.times = None if self.steady else table[:, 0]
         self.speeds = None if self.steady else table[:, 1]
         self._steady_params = self._params(table[0])
+        if full_field is not None:
+            packed = full_field.packed()
+            self._field = np.concatenate([np.zeros(GRID_SLOT + 1), packed])
+            self._field[GRID_SLOT] = GRID_SLOT + 1
 
     def _params(self, row) -> np.ndarray:
         _, vh, ah, vv, sh, sv, lsv, gust, av = row
@@ -116,7 +134,12 @@ class Wind:
         return np.array([np.interp(t, tab[:, 0], tab[:, c]) for c in range(tab.shape[1])])
 
     def params(self, t: float = 0.0) -> np.ndarray:
-        """Parameters of `wind_velocity` at time t [s] (N_PARAMS floats)."""
+        """Parameters of `wind_velocity` at time t [s] (N_PARAMS floats; with a
+        full field, the field: one array per Wind, its time slot set to t, so
+        valid until the next call)."""
+        if self.full_field is not None:
+            self._field[GRID_SLOT + 1] = float(t)
+            return self._field
         if self.steady:
             return self._steady_params
         return self._params(self.row(float(t)))
@@ -145,6 +168,9 @@ class Wind:
         tests/test_twins.py)."""
         z = np.asarray(z, float)
         x, y = np.broadcast_to(x, z.shape).astype(float), np.broadcast_to(y, z.shape).astype(float)
+        if self.full_field is not None:
+            out = self.full_field.velocity(np.stack([x, y, z], axis=-1), float(t))
+            return np.where((z > GROUND)[..., None], out, 0.0)
         vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = self.params(float(t))
         above = z > GROUND
         v1 = horizontal_speed(z, y * ch + x * sh, vh, shr_h, shr_v, lin_v, gust, zr, lr)
@@ -164,7 +190,28 @@ def horizontal_speed(z, lateral, vh, shr_h, shr_v, lin_v, gust, zr, lr):
 
 @njit(cache=True)
 def wind_velocity(p, x, y, z):
-    """(u, v, w) [m/s] at (x, y, z) for parameters p = Wind.params(t) (module doc)."""
+    """(u, v, w) [m/s] at (x, y, z) for parameters p = Wind.params(t) (module doc;
+    a full field where p[GRID_SLOT] > 0)."""
+    if z <= GROUND:
+        return 0.0, 0.0, 0.0
+    if p.shape[0] > GRID_SLOT and p[GRID_SLOT] > 0.0:
+        return grid_velocity(p, int(p[GRID_SLOT]), x, y, z)
+    return uniform_velocity(p, x, y, z)
+
+
+@njit(cache=True)
+def wind_at(p, x, y, z, field):
+    """`wind_velocity`, or for field None (numba prunes the branch) the uniform
+    wind alone: the compiled loads of a scene without a full field then hold
+    no code of it (`effects.compiled.loads_function`)."""
+    if field is None:
+        return uniform_velocity(p, x, y, z)
+    return wind_velocity(p, x, y, z)
+
+
+@njit(cache=True)
+def uniform_velocity(p, x, y, z):
+    """(u, v, w) [m/s] of the uniform wind (module doc) at (x, y, z)."""
     if z <= GROUND:
         return 0.0, 0.0, 0.0
     vh, ch, sh_, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = (p[0], p[1], p[2], p[3], p[4], p[5],

@@ -2,12 +2,13 @@
 the options of modesel's `wind` effect, and uniform wind files.
 
 Supported: WindType 1 (steady wind: HWindSpeed at RefHt with power-law
-exponent PLExp) and WindType 2 (uniform wind file, linear interpolation in
+exponent PLExp), WindType 2 (uniform wind file, linear interpolation in
 time: VelInterpCubic = False), with PropagationDir (a rotation of the flow
 about the vertical; with a uniform file only where its linear horizontal
-shear is zero) and no upflow VFlowAng. Anything else (full-field wind
-files, cubic interpolation, lidar) is a `ModeselError` naming the file and
-the input.
+shear is zero), and WindType 3 (a TurbSim binary full field, FileName_BTS,
+`aero.full_field`; PropagationDir 0), with no upflow VFlowAng. Anything
+else (Bladed or HAWC full fields, cubic interpolation, lidar) is a
+`ModeselError` naming the file and the input.
 
 Uniform wind file (InflowWind_IO.f90, IfW_UniformWind_Init): comment lines
 start with '!'; each data row holds time [s], horizontal speed [m/s],
@@ -31,8 +32,9 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
     """Options of the `wind` effect for an InflowWind main file (paths absolute)."""
     f = InputFile(path, "InflowWind")
     wind_type = f.integer("WindType")
-    if wind_type not in (1, 2):
-        raise f.unsupported("WindType", "only 1 = steady and 2 = uniform wind file are modelled")
+    if wind_type not in (1, 2, 3):
+        raise f.unsupported("WindType", "only 1 = steady, 2 = uniform wind file and 3 = TurbSim full field "
+                                        "are modelled")
     if f.number("VFlowAng") != 0.0:
         raise f.unsupported("VFlowAng", "upflow angle")
     if "SensorType" in f and f.integer("SensorType") != 0:
@@ -46,6 +48,13 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
                 "reference_height": ref, "direction_deg": direction}
     if f.flag("VelInterpCubic", default=False):
         raise f.unsupported("VelInterpCubic", "cubic interpolation in time")
+    if wind_type == 3:
+        if direction != 0.0:
+            raise f.unsupported("PropagationDir", "a rotated full field")
+        bts = f.referenced("FileName_BTS")
+        if bts is None:
+            raise f.error("WindType = 3 needs a TurbSim binary file", "FileName_BTS")
+        return {"full_field": str(bts)}
     wind_file = f.referenced("FileName_Uni", )
     if wind_file is None:
         raise f.error("WindType = 2 needs a uniform wind file", "FileName_Uni")

@@ -111,7 +111,7 @@ from numba import njit
 from modesel.errors import ModeselError
 from modesel.model.effects.base import Effect, Option
 from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, check_tower_table, tower_disturbance
-from modesel.aero.wind import wind_velocity
+from modesel.aero.wind import wind_at, wind_velocity
 from modesel.multibody.kinematics import PointSet
 from modesel.multibody.rotations import cross
 
@@ -248,7 +248,7 @@ class BladeAerodynamics(Effect):
     @property
     def tower_influence(self) -> bool:
         """Whether the blades' wind has the tower's influence (module doc 2; its
-        compiled loads are then `effects.compiled.tower_loads()`)."""
+        compiled loads are then `effects.compiled.loads_function(True)`)."""
         return self.tower is not None
 
     def _tower_influence(self, built, deck):
@@ -289,7 +289,7 @@ class BladeAerodynamics(Effect):
             self._disturb(frames, q_all, qd_all, wp)
         tsr = inflow(R, vec, self.hub, self.blades, self.pos, self.vel, self.rotation, self.reference,
                      wp, self.disturbance, self.vn, self.vt, self.skew, self.psi, self.en, self.et, self.theta,
-                     self.r, self.tip_ratio, self.vrel)
+                     self.r, self.tip_ratio, self.vrel, True)
         fn, ft = self.bem(self.r, self.vn, self.vt, self.pitch, self.skew, self.psi, self.tip_ratio,
                           self.theta, self.bem_weight(tsr))
         distribute(fn, ft, self.en, self.et, *self.transfer_rows, self.forces)
@@ -885,7 +885,7 @@ ZERO_TOLERANCE = 50.0 * 2.220446049250313e-16
 
 @njit(cache=True)
 def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, theta, r_local,
-           tip_ratio, vrel):
+           tip_ratio, vrel, field=None):
     """Element inflow (module doc, steps 2-3) for all blades and stations;
     wp = `Wind.params(t)`, dist (B, M, 3) [m/s] the tower's influence added
     to the wind at each station (`aero.tower_influence`; zeros without it:
@@ -899,7 +899,8 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, p
     over all stations). Returns the rotor's tip-speed ratio as AeroDyn
     forms it for `bem.bem_weight` (AeroDyn.f90 SetInputsForBEMT): the hub's
     angular velocity about the shaft times the largest r_local of all blades
-    over vrel along the shaft (0 where that wind is zero)."""
+    over vrel along the shaft (0 where that wind is zero). field None: the
+    wind is uniform (`aero.wind.wind_at`; True: a full field may be packed in wp)."""
     xs = R[hub, :, 0]
     apex = vec[hub, 0]
     vrel[0] = 0.0
@@ -935,7 +936,7 @@ def inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, p
             a0, a1, a2 = c_ * n0 - s_ * zb[0], c_ * n1 - s_ * zb[1], c_ * n2 - s_ * zb[2]
             en[b, k, 0], en[b, k, 1], en[b, k, 2] = a0, a1, a2
             et[b, k, 0], et[b, k, 1], et[b, k, 2] = t0, t1, t2
-            uk0, uk1, uk2 = wind_velocity(wp, pos[b, k, 0], pos[b, k, 1], pos[b, k, 2])
+            uk0, uk1, uk2 = wind_at(wp, pos[b, k, 0], pos[b, k, 1], pos[b, k, 2], field)
             v0 = uk0 + dist[b, k, 0] - vel[b, k, 0]
             v1 = uk1 + dist[b, k, 1] - vel[b, k, 1]
             v2 = uk2 + dist[b, k, 2] - vel[b, k, 2]

@@ -12,8 +12,8 @@ calls: `kinematics.points`, `aero.wind.wind_params`,
 `effects.aero.station_rotations`/`inflow`/`distribute`/
 `elastic_correction`/`node_moments`, `aero.bem.solve_elements`,
 `aero.tower_drag.drag_forces`, `effects.generator.switched_torque`
-and, for a scene with the tower influence (`tower_loads`, a second cfunc
-compiled on first use), `aero.wind.wind_velocity` and
+and, for a scene with the tower influence (a variant of the cfunc,
+`loads_function`, compiled on first use), `aero.wind.wind_velocity` and
 `aero.tower_influence.tower_disturbance`; the
 Python path stays the reference (tests/test_twins.py holds the two right-hand
 sides equal).
@@ -22,7 +22,10 @@ Layout: ints[0] = number of records; each record starts with (kind, length
 in ints) followed by its kind's ints, which hold offsets into floats and
 state. state[0:N_PARAMS] is the wind at the current time (the wind record,
 first, writes it); state[CHANNEL_FLAG] asks for the output channels, which
-the records write into state slots (`Packer.channel`).
+the records write into state slots (`Packer.channel`); a full field
+(`aero.full_field`) lies in state from state[GRID_SLOT], its time slot
+written by the wind record, so the wind's parameters are the whole state
+(`aero.wind.wind_velocity`).
 """
 from __future__ import annotations
 
@@ -34,7 +37,7 @@ from numba import cfunc, njit
 from modesel.aero.bem import bem_weight, solve_elements
 from modesel.aero.tower_drag import drag_forces
 from modesel.aero.tower_influence import tower_disturbance
-from modesel.aero.wind import N_PARAMS, wind_params, wind_velocity
+from modesel.aero.wind import GRID_SLOT, N_PARAMS, wind_at, wind_params
 from modesel.model.effects.aero import (distribute, elastic_correction, inflow, node_moments, point_loads,
                                         rotor_loads, rotor_power, station_rotations)
 from modesel.model.effects.generator import LAW_PARAMETERS, switched_torque
@@ -57,13 +60,19 @@ def pack_loads(built, packed):
         return None
     packer = Packer()
     wind = built.effect("wind")
+    grid = 0                                 # state offset of a full field (none: 0)
     if wind is not None and hasattr(wind, "field"):
         w = wind.field
+        if w.full_field is not None:         # the packed field in state, where wind_velocity finds it
+            field = w.params(0.0)[GRID_SLOT + 1:]          # the packed field (header, data)
+            grid = packer.scratch(len(field))
+            packer.set_state(grid, field)
+            packer.set_state(GRID_SLOT, [grid])
         packer.record(WIND, [packer.add(w.table), len(w.table), packer.add([w.reference_height,
-                                                                           w.reference_length])])
+                                                                           w.reference_length]), grid])
     for e in acting:
         e.compile_loads(built, packer, packed)
-    loads = tower_loads() if packer.tower_influence else effect_loads
+    loads = loads_function(packer.tower_influence, grid > 0)
     return (loads,) + packer.arrays(), dict(packer.channels)
 
 
@@ -111,14 +120,15 @@ def _stations(ints, p, floats, state, R, vec, q_all, qd_all):
 
 
 @njit(cache=True)
-def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held):
+def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held, field):
     """Blade BEM loads (effects/aero.py `BladeAerodynamics.__call__`, steps 2-5)
     at the stations `_stations` left in the record's scratch, with the tower's
     influence `_tower` left there (zeros without): inflow, BEM, distribution to the nodes
     and node moments, or the same loads at the blades' load points (`point_loads`),
     ElastoDyn's generalised-force correction when packed.
     The generalised forces are summed in a state slot (n_all) and added to
-    gen; held != 0: only that, with the node forces left as they are (LOADS_SIG)."""
+    gen; held != 0: only that, with the node forces left as they are (LOADS_SIG).
+    field None: uniform wind (`aero.wind.wind_at`), else a full field may be packed."""
     hub, B, M, N, o_const, o_elem, o_T, o_pol, G, PG, o_scr = (ints[p], ints[p + 1], ints[p + 2], ints[p + 3],
                                                                 ints[p + 4], ints[p + 5], ints[p + 6],
                                                                 ints[p + 7], ints[p + 8], ints[p + 9],
@@ -184,9 +194,9 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
     o += B * rows * 6
     guess = state[o:o + B * M]
     A = view3(floats, o_ref, M, 3, 3)
-    wp = state[0:N_PARAMS]
+    wp = state                     # the wind's parameters, and a full field's grid (module doc)
     tsr = inflow(R, vec, hub, blades, pos, vel, rotation, A, wp, dist, vn, vt, skew, psi, en, et, section,
-                 r_local, tip_ratio, vrel)
+                 r_local, tip_ratio, vrel, field)
     c = floats[o_const:o_const + 6]
     theta = section.ravel()
     chord = floats[o_elem:o_elem + B * M]
@@ -252,7 +262,7 @@ def _aero(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, hel
 
 
 @njit(cache=True)
-def _tower(ints, p, floats, state, R, vec, q_all, qd_all):
+def _tower(ints, p, floats, state, R, vec, q_all, qd_all, field):
     """The tower's influence on the wind at the blade stations (effects/aero.py
     `_disturb`, `aero.tower_influence.tower_disturbance`) of the aero record
     whose ints start at p, at the stations `_stations` left in its scratch,
@@ -269,9 +279,9 @@ def _tower(ints, p, floats, state, R, vec, q_all, qd_all):
     vel = view2(state, o_tw + 3 * m, m, 3)
     wind = view2(state, o_tw + 6 * m, m, 3)
     _point_kinematics(ints, p + 5, floats, R, vec, q_all, qd_all, pos, vel)
-    wp = state[0:N_PARAMS]
+    wp = state
     for k in range(m):
-        wind[k, 0], wind[k, 1], wind[k, 2] = wind_velocity(wp, pos[k, 0], pos[k, 1], pos[k, 2])
+        wind[k, 0], wind[k, 1], wind[k, 2] = wind_at(wp, pos[k, 0], pos[k, 1], pos[k, 2], field)
     tower_disturbance(potential, shadow, stations, pos, vel, wind, floats[o_props:o_props + 3 * m], dist)
 
 
@@ -308,7 +318,7 @@ def _rotor_channels(ints, p, floats, R, vec, q_all, qd_all, forces, hub, rho, rm
 
 
 @njit(cache=True)
-def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
+def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag, field):
     """Tower drag (effects/tower_drag.py): the line load at the stations,
     carried to the tower's load rows by the transfer's bands (its nodes) or
     the points' weights (its load points); not called while the loads are
@@ -321,7 +331,7 @@ def _tower_drag(ints, p, floats, state, R, vec, q_all, qd_all, fnodes, fflag):
     vel = view2(state, o_scr + 3 * m, m, 3)
     line = view2(state, o_scr + 6 * m, m, 3)
     _point_kinematics(ints, a, floats, R, vec, q_all, qd_all, pos, vel)
-    drag_forces(pos, vel, state[0:N_PARAMS], floats[o_coef:o_coef + m], line)
+    drag_forces(pos, vel, state, floats[o_coef:o_coef + m], line, field)
     band = view2(floats, o_band, rows, width)
     for i in range(rows):
         f0 = first[i]
@@ -350,27 +360,31 @@ def _generator(t, ints, p, floats, state, qd_all, gen):
 
 
 @njit(inline="always")
-def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, tower):
+def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, tower, field):
     """The loop over the records (`effect_loads`), inlined into each cfunc
     that calls it (no compiled level of its own); tower None: numba prunes the
-    tower influence's branch, whose code then compiles only into `tower_loads`."""
+    tower influence's branch, whose code then compiles only into the variants
+    with it (`loads_function`); field None: likewise the full field's."""
     p = 1
     for _ in range(ints[0]):
         kind, length = ints[p], ints[p + 1]
         a = p + 2
         if kind == WIND:
-            n = ints[a + 1]
-            wind_params(view2(floats, ints[a], n, 9), floats[ints[a + 2]],
-                        floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
+            if ints[a + 3] > 0:
+                state[ints[a + 3]] = t            # the full field's time slot
+            else:
+                n = ints[a + 1]
+                wind_params(view2(floats, ints[a], n, 9), floats[ints[a + 2]],
+                            floats[ints[a + 2] + 1], t, state[0:N_PARAMS])
         elif kind == AERO:
             if held == 0:
                 _stations(ints, a, floats, state, R, vec, q_all, qd_all)
                 if tower is not None:
-                    _tower(ints, a, floats, state, R, vec, q_all, qd_all)
-            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held)
+                    _tower(ints, a, floats, state, R, vec, q_all, qd_all, field)
+            _aero(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, gen, held, field)
         elif kind == TOWER_DRAG:
             if held == 0:
-                _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag)
+                _tower_drag(ints, a, floats, state, R, vec, q_all, qd_all, fnodes, fflag, field)
         else:
             _generator(t, ints, a, floats, state, qd_all, gen)
         p += length
@@ -387,21 +401,36 @@ def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, sta
     (their node forces stay in fnodes, the BEM's generalised forces are added
     again); the wind and the generator are evaluated (a generator law can be
     stiff: its torque's slope stays in Radau's Jacobian). Without the tower
-    influence (`tower_loads` has it)."""
-    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, None)
+    influence and the full field (`loads_function` has them)."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, None, None)
 
 
-def _effect_loads_tower(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
-    """`effect_loads` with the tower influence (`_tower`); compiled by
-    `tower_loads` on first use."""
-    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True)
+def _loads_tower(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """`effect_loads` with the tower influence (`_tower`)."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True, None)
 
 
-@functools.lru_cache(maxsize=1)
-def tower_loads():
-    """The cfunc (`kernel.LOADS_SIG`) of the loads with AeroDyn's tower influence
-    on the blades' wind (`_effect_loads_tower`), compiled on the first call in
-    a process (from numba's cache after the first run), so that its code
-    (`_tower`, `aero.tower_influence`) stays out of `effect_loads`, which
-    every scene with effects compiles on its first run."""
-    return cfunc(LOADS_SIG, cache=True)(_effect_loads_tower)
+def _loads_field(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """`effect_loads` with a full field (`aero.full_field`)."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, None, True)
+
+
+def _loads_tower_field(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
+    """`effect_loads` with the tower influence and a full field."""
+    return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True, True)
+
+
+_VARIANTS = {(True, False): _loads_tower, (False, True): _loads_field, (True, True): _loads_tower_field}
+
+
+@functools.lru_cache(maxsize=None)
+def loads_function(tower: bool = False, field: bool = False):
+    """The cfunc (`kernel.LOADS_SIG`) of the loads, with AeroDyn's tower
+    influence on the blades' wind (`_tower`) and/or a full field's wind
+    (`aero.full_field`) where asked: `effect_loads` without either, else
+    compiled on the first call in a process (from numba's cache after the
+    first run), so that their code stays out of `effect_loads`, which every
+    scene with effects compiles on its first run."""
+    if not (tower or field):
+        return effect_loads
+    return cfunc(LOADS_SIG, cache=True)(_VARIANTS[bool(tower), bool(field)])

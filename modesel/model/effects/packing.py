@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modesel.aero.wind import N_PARAMS
+from modesel.aero.wind import GRID_SLOT, N_PARAMS
 
 WIND, AERO, TOWER_DRAG, GENERATOR = 0, 1, 2, 3
 
@@ -14,6 +14,7 @@ WIND, AERO, TOWER_DRAG, GENERATOR = 0, 1, 2, 3
 #: that cost work (the aerodynamic rotor loads) into their channel slots;
 #: set only for the pass over the output times (`CompiledRHS.outputs`)
 CHANNEL_FLAG = N_PARAMS
+assert GRID_SLOT == CHANNEL_FLAG + 1      # state[GRID_SLOT]: where a full field starts (0: none)
 
 
 class Packer:
@@ -23,10 +24,10 @@ class Packer:
         self.ints = [0]
         self.floats = []
         self.n_floats = 0
-        self.n_state = CHANNEL_FLAG + 1
+        self.n_state = GRID_SLOT + 1
         self.initial = {}
         self.channels = {}
-        #: a record needs the tower influence's code (`effects.compiled.tower_loads()`)
+        #: a record needs the tower influence's code (`effects.compiled.loads_function`)
         self.tower_influence = False
 
     def add(self, array) -> int:

@@ -72,7 +72,7 @@ class TowerDragLoads(Effect):
 
     def __call__(self, built, t, q_all, qd_all, generalized, node_forces):
         pos, vel = self.stations.kinematics(built.frames(q_all, qd_all), q_all, qd_all)
-        drag_forces(pos, vel, self.wind.params(t), self.coef, self.line)
+        drag_forces(pos, vel, self.wind.params(t), self.coef, self.line, True)
         force = self.transfer @ self.line
         f = node_forces.get("tower")
         node_forces["tower"] = force if f is None else f + force

@@ -16,6 +16,11 @@ linearly; `inflowwind.read_uniform_wind`):
     reference_height = 90.0      # RefHt_Uni [m]
     reference_length = 125.88    # RefLength [m] of the linear shears
 
+or a TurbSim full field (InflowWind WindType 3: frozen turbulence on a
+grid, `aero.full_field`):
+
+    full_field = "turb.bts"      # relative to the scene
+
 The wind itself applies no load.
 """
 from __future__ import annotations
@@ -36,12 +41,21 @@ class WindField(Effect):
         "time_series": Option("series", None, "(time [s], speed [m/s]) pairs"),
         "file": Option("path", None, "InflowWind uniform wind file"),
         "reference_length": Option("number", None, "RefLength of the linear shears [m]", positive=True),
+        "full_field": Option("path", None, "TurbSim full-field file (.bts)"),
     }
 
     def __init__(self, scene, options):
         super().__init__(scene, options)
         o = options
-        if o["file"] is not None:
+        self.full_field = None
+        if o["full_field"] is not None:
+            for key in ("speed", "shear", "direction_deg", "time_series", "file", "reference_length"):
+                if o[key] is not None:
+                    raise self.error("given by the full field: leave it out with full_field", key)
+            from modesel.aero.full_field import read_turbsim
+            self.full_field = read_turbsim(o["full_field"])
+            self.table = None
+        elif o["file"] is not None:
             for key in ("speed", "shear", "direction_deg", "time_series"):
                 if o[key] is not None:
                     raise self.error("given by the wind file's columns: leave it out with file", key)
@@ -56,6 +70,9 @@ class WindField(Effect):
 
     def setup(self, built):
         o = self.options
+        if self.full_field is not None:
+            self.field = Wind(reference_height=self.full_field.hub_height, full_field=self.full_field)
+            return
         z_ref = o["reference_height"] if o["reference_height"] is not None else built.hub_height()
         if self.table is not None:
             self.field = Wind(reference_height=z_ref, table=self.table,
@@ -63,6 +80,17 @@ class WindField(Effect):
             return
         series = None if o["time_series"] is None else o["time_series"].T
         self.field = Wind(o["speed"] or 0.0, o["shear"] or 0.0, z_ref, series, o["direction_deg"] or 0.0)
+
+
+    def check_covers(self, built, tmax):
+        """With a full field: a one-line ModeselError where the rotor at rest
+        (hub height, the aero effect's tip radius) or a run of tmax [s] leaves
+        the field (`FullField.check_covers`), before anything is integrated."""
+        if self.full_field is None:
+            return
+        aero = built.effect("aero")
+        radius = aero.bem.solver.tip_radius if aero is not None and hasattr(aero, "bem") else 0.0
+        self.full_field.check_covers(built.hub_height(), radius, tmax)
 
 
 EFFECT = WindField
