@@ -234,6 +234,20 @@ def test_turbulent_wind_matches_openfast():
     assert ref.Wind1VelX.std() > 0.1 * ref.Wind1VelX.mean()          # the case is what it says: turbulent
 
 
+def test_turbulent_wind_on_the_tower_matches_openfast():
+    """turbulent_tower: turbulent_08 with AeroDyn's tower drag, potential flow
+    and shadow (TwrAero, TwrPotent 1, TwrShadow 1): the wind at the tower's
+    AeroDyn nodes comes from the full field, below the grid (20 m) from the
+    file's tower points and then linearly to zero at the ground. Those lowest
+    nodes carry little of the base shear: with the tower points' wind set to
+    zero modesel's mean TwrBsFxt moved from -0.005 % to -0.45 % (session 26)."""
+    out, ref = run("turbulent_tower")
+    hold_to_tolerances("turbulent_tower", out, ref, 20.0, dict(MEAN_TOLERANCES, TwrBsFxt=0.01, TwrBsMyt=0.01),
+                       ("OoPDefl1", "RootMyc1", "TwrBsFxt", "TwrBsMyt", "TwrBsMxt"),
+                       ("RotSpeed", "GenPwr", "TTDspFA", "TTDspSS", "OoPDefl1", "IPDefl1", "RootMyc1", "TwrBsMyt",
+                        "TwrBsMxt", "TwrBsFxt", "TwrBsFyt"))
+
+
 #: ElastoDyn's reaction loads each case's reduced reference holds besides its other channels
 LOADS = ("RootMxb1", "RootMyb1", "RootFxc1", "RootFyc1", "RootMzc1", "TwrBsFxt", "TwrBsFyt", "TwrBsMzt",
          "YawBrFxp", "YawBrFyp", "YawBrMxp", "YawBrMyp")
@@ -466,21 +480,30 @@ def openfast_executable():
     return path if Path(path).is_file() and os.access(path, os.X_OK) else None
 
 
+#: committed cases re-run by OpenFAST, with the folders their decks name and the channels compared
+RERUN = {"rotating_release": (("tests/data/openfast_turbine/common",), RELEASE_CHANNELS + ("RotSpeed",)),
+         "turbulent_08": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
+                          ("RotSpeed", "OoPDefl1", "RootMyc1", "TTDspFA", "Wind1VelX", "Wind1VelY", "Wind1VelZ"))}
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(openfast_executable() is None, reason="no OpenFAST executable: set OPENFAST or install "
                     "../shared/tools/openfast/openfast")
-def test_committed_decks_give_the_committed_reference(tmp_path):
+@pytest.mark.parametrize("name", RERUN)
+def test_committed_decks_give_the_committed_reference(tmp_path, name):
     """OpenFAST on a copy of the decks (same relative layout) reproduces the
-    reduced reference of the rotating release."""
-    for part in ("tests/data/openfast_more/rotating_release", "tests/data/openfast_turbine/common"):
+    reduced reference (the rotating release; the turbulent wind with its
+    TurbSim file)."""
+    folders, channels = RERUN[name]
+    for part in (f"tests/data/openfast_more/{name}",) + folders:
         shutil.copytree(REPO / part, tmp_path / part)
-    case = tmp_path / "tests/data/openfast_more/rotating_release"
-    proc = subprocess.run([openfast_executable(), "rotating_release.fst"], cwd=case, capture_output=True,
+    case = tmp_path / f"tests/data/openfast_more/{name}"
+    proc = subprocess.run([openfast_executable(), f"{name}.fst"], cwd=case, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0 and "terminated normally" in proc.stdout, proc.stdout[-2000:]
-    new = read_openfast_output(case / "rotating_release.outb")
-    ref = reference("rotating_release")
-    for c in RELEASE_CHANNELS + ("RotSpeed",):
+    new = read_openfast_output(case / f"{name}.outb")
+    ref = reference(name)
+    for c in channels:
         assert np.allclose(new[c].to_numpy(), ref[c].to_numpy(), rtol=1e-6, atol=1e-6 * np.ptp(ref[c])), c
 
 
