@@ -179,3 +179,26 @@ def test_unsupported_inflowwind_options_exit_2(tmp_path, label, value):
     assert proc.returncode == 2, proc.stderr
     line, = proc.stderr.strip().splitlines()
     assert "turbulent_08_InflowWind.dat" in line and label in line and "Traceback" not in proc.stderr
+
+
+def test_a_toml_scene_takes_a_full_field(tmp_path):
+    """[effects.wind] full_field = "file.bts" in a TOML scene: the rotor turns in
+    the field (the committed turbulent_08 file), the wind's other keys are
+    refused beside it, and a rotor the grid does not cover is named before
+    anything is integrated."""
+    from modesel.simulation.api import load_scene, simulate
+    bts = CASE / "turbulent_08.bts"
+    scene_text = (ROOT / "studies" / "scenes" / "turbine_wind_11p4.toml").read_text()
+    scene_text = scene_text.replace("wind = { speed = 11.4 }", f"wind = {{ full_field = {str(bts)!r} }}")
+    scene_text = scene_text.replace("equilibrium = true", "equilibrium = false")
+    path = tmp_path / "turbulent.toml"
+    path.write_text(scene_text)
+    out = simulate(load_scene(path), tmax=2.0).outputs
+    assert np.all(np.isfinite(out.RotSpeed)) and out.RtVAvgxh.iloc[-1] == pytest.approx(7.5, abs=1.0)
+    both = tmp_path / "both.toml"
+    both.write_text(scene_text.replace(f"full_field = {str(bts)!r}", f"full_field = {str(bts)!r}, speed = 8.0"))
+    with pytest.raises(ModeselError, match="full_field"):
+        simulate(load_scene(both), tmax=1.0)
+    with pytest.raises(ModeselError, match="frozen turbulence") as err:      # 70 s of file, 8.75 s shift
+        simulate(load_scene(path), tmax=65.0)
+    assert "turbulent_08.bts" in str(err.value)
