@@ -61,8 +61,9 @@ def run_openfast(exe, tmax, folder):
     proc = subprocess.run([exe, fst.name], cwd=fst.parent, capture_output=True, text=True)
     wall = time.perf_counter() - start
     shutil.rmtree(work)
-    if proc.returncode:
-        raise SystemExit(proc.stdout[-2000:])
+    if proc.returncode:      # a missing runtime library is on stderr, OpenFAST's own errors on stdout
+        raise SystemExit(f"OpenFAST ({exe}) failed with exit code {proc.returncode}:\n"
+                         + (proc.stderr.strip() or proc.stdout[-2000:]))
     return wall
 
 
