@@ -143,18 +143,16 @@ class FullField:
         k0 = np.floor(tg).astype(np.int64)
         frac = tg - np.trunc(tg)
         k1 = k0 + 1
-        ok_t = (k0 >= 0) & (k1 <= nt - 1)
         last = k0 == nt - 1
+        ok_t = ((k0 >= 0) & (k1 <= nt - 1)) | last
         if self.periodic:
             k1 = np.where(last, 0, k1)
-            ok_t |= last
         else:
             hold = last & (2 * frac - 1 <= GRID_TOL)
             k1 = np.where(hold, k0, k1)
             frac = np.where(hold, 0.0, frac)
             back = last & ~hold                      # InflowWind's last-interval fraction
             k0, k1 = np.where(back, nt - 2, k0), np.where(back, nt - 1, k1)
-            ok_t |= last
         # heights and lateral positions on the grid
         zg = (z - self.grid_base) / self.dz
         yg = (y + self.half_width) / self.dy

@@ -106,7 +106,7 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
                                   scene.solver.get("rtol"), kinked=built.kinked)
     rtol, atol = default_tolerances(method)
     wind = built.effect("wind")
-    if wind is not None and hasattr(wind, "check_covers"):     # a full field: the rotor and tmax inside it
+    if wind is not None:            # a full field: the rotor and tmax inside it
         wind.check_covers(built, tmax)
     try:
         integ = integrate(rhs, built.q0, built.qd0, tmax, dt, method=method,

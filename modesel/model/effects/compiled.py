@@ -69,7 +69,7 @@ def pack_loads(built, packed):
             packer.set_state(grid, field)
             packer.set_state(GRID_SLOT, [grid])
         packer.record(WIND, [packer.add(w.table), len(w.table), packer.add([w.reference_height,
-                                                                           w.reference_length]), grid])
+                                                                           w.reference_length])])
     for e in acting:
         e.compile_loads(built, packer, packed)
     loads = loads_function(packer.tower_influence, grid > 0)
@@ -370,8 +370,9 @@ def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state,
         kind, length = ints[p], ints[p + 1]
         a = p + 2
         if kind == WIND:
-            if ints[a + 3] > 0:
-                state[ints[a + 3]] = t            # the full field's time slot
+            grid = int(state[GRID_SLOT])
+            if grid > 0:
+                state[grid] = t                   # the full field's time slot
             else:
                 n = ints[a + 1]
                 wind_params(view2(floats, ints[a], n, 9), floats[ints[a + 2]],

@@ -81,7 +81,6 @@ class WindField(Effect):
         series = None if o["time_series"] is None else o["time_series"].T
         self.field = Wind(o["speed"] or 0.0, o["shear"] or 0.0, z_ref, series, o["direction_deg"] or 0.0)
 
-
     def check_covers(self, built, tmax):
         """With a full field: a one-line ModeselError where the rotor at rest
         (hub height, the aero effect's tip radius) or a run of tmax [s] leaves
