@@ -466,8 +466,9 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     effects compiles the right-hand side here and the loops in the child,
     not the effects' loads it never calls (28 s of one core, which made
     paper_3dof_land's first run 43-48 s instead of 26-32 s); a scene with
-    BEM loads has the child compile them (and the loads with the tower's
-    influence, for a scene with it). It is decided by the cache of the
+    BEM loads has the child compile them (the one variant of the loads it
+    runs: with the tower's influence for a scene with it, and not the loads
+    without). It is decided by the cache of the
     right-hand side's cfunc, which numba keeps under `kernel.free_system`,
     and it spawns nothing once that is there (a child per warm run cost a
     warm paper_3dof_land 1 s)."""
@@ -504,15 +505,16 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     cached.add(first_run.SYSTEM_CACHE)
     assert not first_run.compile_in_parallel(bare) and not spawned
     assert first_run.compile_in_parallel(windy)
-    assert f"import {first_run.LOADS_MODULE}" in spawned[0] and spawned[1] == ("here", ("runge_kutta",))
-    assert "loads_function(" not in spawned[0]
-    # AeroDyn's tower influence: its loads (a second cfunc) compile in the child too, and
-    # only for a scene that has it, also once the loads without it are cached
+    assert f"import {first_run.LOADS_MODULE}; {first_run.LOADS_MODULE}.loads_function(False, False);" in spawned[0]
+    assert spawned[1] == ("here", ("runge_kutta",))
+    # AeroDyn's tower influence: its loads (a second cfunc) compile in the child instead of
+    # the loads without it, and only for a scene that has it, also once those are cached
     tower = build(load_scene(ROOT / "tests" / "data" / "openfast_more" / "tower_potential" / "tower_potential.fst"))
     spawned.clear()
     assert first_run.compile_in_parallel(tower)
     assert f"import {first_run.LOADS_MODULE}; {first_run.LOADS_MODULE}.loads_function(True, False);" in spawned[0]
-    cached.add((first_run.LOADS_MODULE, None))
+    assert "loads_function(False, False)" not in spawned[0]
+    cached.add((first_run.LOADS_MODULE, first_run.LOADS_VARIANTS[False, False]))
     spawned.clear()
     assert not first_run.compile_in_parallel(windy) and not spawned
     assert first_run.compile_in_parallel(tower) and "loads_function(True, False)" in spawned[0]

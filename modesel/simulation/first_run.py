@@ -3,10 +3,10 @@ compiles the engine into its on-disk cache.
 
 The engine has four independent parts to compile: the flexible bodies'
 invariant route (`multibody.invariant_sums`, a cfunc), the effects' loads
-(`model.effects.compiled`: the cfunc `effect_loads` and the BEM, kinematics
-and load-distribution functions it calls; for a scene with AeroDyn's tower
-influence or a full-field wind, also its variant `loads_function(tower,
-field)`), the right-hand side
+(`model.effects.compiled`: the one cfunc of `loads_function(tower, field)`
+the scene runs, `effect_loads` or its variant with AeroDyn's tower influence
+and/or a full-field wind, and the BEM, kinematics and load-distribution
+functions it calls), the right-hand side
 (`multibody.system_function`: the cfunc of `kernel.free_system`) and the
 loops that call it through a pointer (`kernel.runge_kutta` for DOP853 and
 RK45, `kernel.reaction_loads`). Each needs only the *types* of the others
@@ -44,11 +44,10 @@ from modesel.engine_cache import cache_places
 
 #: the module of the effects' compiled loads (compiled by the child)
 LOADS_MODULE = "modesel.model.effects.compiled"
-#: the cfuncs of the loads in LOADS_MODULE with AeroDyn's tower influence and/or
-#: a full-field wind, {(tower, field): function} (`loads_function(tower, field)`),
-#: compiled only for a scene that has them, by the child after the module's
-#: import, from the functions it compiled
-LOADS_VARIANTS = {(True, False): "_loads_tower", (False, True): "_loads_field",
+#: the cfuncs of the loads in LOADS_MODULE, without and with AeroDyn's tower
+#: influence and/or a full-field wind, {(tower, field): function}
+#: (`loads_function(tower, field)`): the child compiles the one a scene runs
+LOADS_VARIANTS = {(False, False): "effect_loads", (True, False): "_loads_tower", (False, True): "_loads_field",
                   (True, True): "_loads_tower_field"}
 #: the module of the flexible bodies' invariant route (compiled by the child first)
 INVARIANT_MODULE = "modesel.multibody.invariant_sums"
@@ -113,10 +112,9 @@ def compile_in_parallel(built) -> bool:
     tower = with_loads and any(getattr(e, "tower_influence", False) for e in acting)
     wind = built.effect("wind") if with_loads else None
     field = getattr(wind, "full_field", None) is not None
-    variant = LOADS_VARIANTS.get((tower, field))
     module = LOADS_MODULE if with_loads else SYSTEM_MODULE
-    caches = [(LOADS_MODULE,)] + [(LOADS_MODULE, variant)] * bool(variant) if with_loads else [SYSTEM_CACHE]
-    if module in sys.modules or not any(is_cold(*c) for c in caches):
+    cache = (LOADS_MODULE, LOADS_VARIANTS[tower, field]) if with_loads else SYSTEM_CACHE
+    if module in sys.modules or not is_cold(*cache):
         return False
     package_root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH"))
@@ -126,8 +124,7 @@ def compile_in_parallel(built) -> bool:
     if with_loads:
         loops = () if invariants else ("reaction_loads",)
         here = ("runge_kutta",) + (("reaction_loads",) if invariants else ())
-        first += f"import {LOADS_MODULE}; " + (f"{LOADS_MODULE}.loads_function({tower}, {field}); "
-                                                if variant else "")
+        first += f"import {LOADS_MODULE}; {LOADS_MODULE}.loads_function({tower}, {field}); "
     else:
         loops, here = ("runge_kutta", "reaction_loads"), ()
     code = f"{first}from {__name__} import compile_loops; compile_loops({loops!r})"

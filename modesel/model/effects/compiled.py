@@ -2,8 +2,9 @@
 
 `pack_loads(built, packed)` packs every switched-on effect that acts at
 every right-hand side into two flat arrays (ints, floats) plus a state
-array (scratch and latched switches), and `effect_loads` (a numba cfunc
-of `kernel.LOADS_SIG`, passed to the kernel as a first-class function, so
+array (scratch and latched switches), and `effect_loads` (compiled into a
+numba cfunc of `kernel.LOADS_SIG` by `loads_function`, on first use, and
+passed to the kernel as a first-class function, so
 one compiled loop serves every scene with loads and stays in numba's
 on-disk cache)
 evaluates them by a dispatch on the effect kind. The physics are the same
@@ -395,7 +396,6 @@ def _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state,
     return 0
 
 
-@cfunc(LOADS_SIG, cache=True)
 def effect_loads(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held):
     """All packed effects' loads at time t (module doc; `kernel.LOADS_SIG`).
     held != 0: the BEM loads and the tower drag are those of the last call
@@ -421,17 +421,17 @@ def _loads_tower_field(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, float
     return _dispatch(t, q_all, qd_all, R, vec, gen, fnodes, fflag, ints, floats, state, held, True, True)
 
 
-_VARIANTS = {(True, False): _loads_tower, (False, True): _loads_field, (True, True): _loads_tower_field}
+_VARIANTS = {(False, False): effect_loads, (True, False): _loads_tower, (False, True): _loads_field,
+             (True, True): _loads_tower_field}
 
 
 @functools.lru_cache(maxsize=None)
 def loads_function(tower: bool = False, field: bool = False):
     """The cfunc (`kernel.LOADS_SIG`) of the loads, with AeroDyn's tower
     influence on the blades' wind (`_tower`) and/or a full field's wind
-    (`aero.full_field`) where asked: `effect_loads` without either, else
-    compiled on the first call in a process (from numba's cache after the
-    first run), so that their code stays out of `effect_loads`, which every
-    scene with effects compiles on its first run."""
-    if not (tower or field):
-        return effect_loads
+    (`aero.full_field`) where asked, `effect_loads` without either: each
+    compiled on its first call in a process (loaded from numba's cache
+    after the first run), so that a scene's first run compiles the one
+    variant it runs, and the influence's and the field's code stays out of
+    the others."""
     return cfunc(LOADS_SIG, cache=True)(_VARIANTS[bool(tower), bool(field)])
