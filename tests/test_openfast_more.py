@@ -234,6 +234,29 @@ def test_turbulent_wind_matches_openfast():
     assert ref.Wind1VelX.std() > 0.1 * ref.Wind1VelX.mean()          # the case is what it says: turbulent
 
 
+def test_turbulent_wind_around_rated_matches_openfast():
+    """turbulent_11p4: the turbine of steady_11p4 (12.1 rpm at the start) in
+    a field of 11.4 m/s at the hub, TI 15 % (`turbulent_08/make_wind.py
+    --case=turbulent_11p4`, the seed of eight whose rotor-disc average u
+    fluctuates most), 60 s, pitch held at 0: the rotor speed swings by over
+    3 rpm and the simple variable-speed law passes through its regions 2, 2.5
+    and 3 (session 27; modesel's means within 0.07 %, NRMSE at most 0.38 %)."""
+    out, ref = run("turbulent_11p4")
+    hold_to_tolerances("turbulent_11p4", out, ref, 30.0,
+                       dict(MEAN_TOLERANCES, GenTq=0.01, RootMyc1=0.01, TwrBsMyt=0.01),
+                       ("RotSpeed", "GenTq", "GenPwr", "RtAeroFxh", "OoPDefl1", "IPDefl1", "RootMyc1", "RootMxc1",
+                        "TwrBsMyt", "TwrBsMxt", "TTDspSS"),
+                       ("RotSpeed", "GenTq", "GenPwr", "RtAeroFxh", "RtAeroMxh", "TTDspFA", "TTDspSS", "OoPDefl1",
+                        "IPDefl1", "RootMyc1", "RootMxc1", "TwrBsMyt", "TwrBsMxt"))
+    for c in ("Wind1VelX", "Wind1VelY", "Wind1VelZ"):
+        assert nrmse(out, ref, c) < 1e-5, (c, nrmse(out, ref, c))
+    # the case is what it says: OpenFAST's torque at ServoDyn's rated VS_RtTq (region 3)
+    # and deep in region 2 (K omega^2 below the region-2.5 start, 33.1 kN m)
+    rated = 43.09355            # kN m
+    assert ref.GenTq.max() >= 0.999 * rated and ref.GenTq.min() < 0.75 * rated
+    assert ref.RotSpeed.max() - ref.RotSpeed.min() > 3.0
+
+
 def test_turbulent_wind_on_the_tower_matches_openfast():
     """turbulent_tower: turbulent_08 with AeroDyn's tower drag, potential flow
     and shadow (TwrAero, TwrPotent 1, TwrShadow 1): the wind at the tower's
@@ -483,7 +506,10 @@ def openfast_executable():
 #: committed cases re-run by OpenFAST, with the folders their decks name and the channels compared
 RERUN = {"rotating_release": (("tests/data/openfast_turbine/common",), RELEASE_CHANNELS + ("RotSpeed",)),
          "turbulent_08": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
-                          ("RotSpeed", "OoPDefl1", "RootMyc1", "TTDspFA", "Wind1VelX", "Wind1VelY", "Wind1VelZ"))}
+                          ("RotSpeed", "OoPDefl1", "RootMyc1", "TTDspFA", "Wind1VelX", "Wind1VelY", "Wind1VelZ")),
+         "turbulent_11p4": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
+                            ("RotSpeed", "GenTq", "OoPDefl1", "RootMyc1", "TTDspFA", "Wind1VelX", "Wind1VelY",
+                             "Wind1VelZ"))}
 
 
 @pytest.mark.slow
