@@ -521,6 +521,10 @@ def test_first_run_of_a_scene_without_effects_leaves_the_loads(tmp_path, monkeyp
     cached.add((first_run.LOADS_MODULE, first_run.LOADS_VARIANTS[True, False]))
     spawned.clear()
     assert not first_run.compile_in_parallel(tower) and not spawned
+    # the child is told, and the cache searched for, the functions the variants compile
+    # (a name that drifted would find no cache, so every warm run would spawn a child)
+    from modesel.model.effects import compiled
+    assert {key: f.__name__ for key, f in compiled._VARIANTS.items()} == first_run.LOADS_VARIANTS
     # the right-hand side's cfunc is cached under the function it compiles (numba's naming)
     from modesel.multibody import system_function
     index = system_function.FREE_SYSTEM._cache._cache_file._index_name
