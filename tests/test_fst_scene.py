@@ -234,7 +234,6 @@ UNSUPPORTED = [
     ("steady_08.fst", "CompHydro", "1", "HydroDyn"),
     ("steady_08.fst", "CompMooring", "3", "mooring"),
     ("steady_08_ElastoDyn.dat", "PitchDOF", "True", "pitch DOF"),
-    ("steady_08_ElastoDyn.dat", "GBoxEff", "95.0", "gearbox losses"),
     ("steady_08_ElastoDyn.dat", "Furling", "True", "furling"),
     ("steady_08_ServoDyn.dat", "PCMode", "5", "pitch control"),
     ("steady_08_ServoDyn.dat", "VSContrl", "5", "simple variable speed"),
@@ -261,6 +260,18 @@ def test_unsupported_option_is_a_one_line_error(tmp_path, file, label, value, wh
     message = str(info.value)
     assert "\n" not in message
     assert message.startswith(f"{target}: {label}: ") and what in message
+
+
+@pytest.mark.parametrize("value", ["0.0", "120.0", "-5.0"])
+def test_gearbox_efficiency_outside_its_range_is_a_one_line_error(tmp_path, value):
+    """GBoxEff (modelled since session 28, `multibody.gearbox`) must lie in (0, 100] %."""
+    fst = copy_case(tmp_path)
+    target = (fst.parent / "steady_08_ElastoDyn.dat").resolve()
+    edit(target, "GBoxEff", value)
+    with pytest.raises(ModeselError) as info:
+        load_scene(fst)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{target}: GBoxEff: ") and "(0, 100]" in message
 
 
 @pytest.mark.parametrize("label, value, what", [

@@ -28,6 +28,7 @@ from modesel.aero.tower_drag import drag_forces
 from modesel.aero.wind import COLUMNS, N_PARAMS, wind_params, wind_velocity
 from modesel.model.effects.aero import inflow, section_reference
 from modesel.multibody.kane import KaneEquations
+from modesel.multibody.kernel import LOSS_K
 from modesel.multibody.kinematics import PointSet
 from modesel.simulation.api import build, load_scene
 from modesel.simulation.scene import scene_from_dict
@@ -479,6 +480,37 @@ def tower_drag_nodes(rng):
     built.effect("tower_drag").load_points = lambda built: {}           # no load points offered
     assert not built.rhs().packed.load_points
     return rhs_pairs(built, rng, "tower drag at the nodes")
+
+
+@twin("gearbox_losses")
+def gearbox_losses(rng):
+    """A lossy gearbox (ElastoDyn's GBoxEff 95 %, committed OpenFAST case gearbox_losses): the
+    compiled right-hand side's accelerations (gearbox_loss.gearbox_loss, the loss factor decided by the
+    shaft torque's sign) and its M, F at the factor it decided (held by the next NO_SOLVE call) /
+    the Python effects + KaneEquations.evaluate_reference (multibody/gearbox.py), at states
+    whose drivetrain twist drives the generator and states where it is driven (both factors)."""
+    built = build(load_scene(ROOT / "tests/data/openfast_more/gearbox_losses/gearbox_losses.fst"))
+    eq, rhs = built.eq, built.rhs()
+    k, g, eta = eq.loss
+    names = list(built.model.system.free)
+    i_drtr = names.index("DrTr")
+    out, factors = [], set()
+    for n in range(6):
+        q = built.q0 + rng.normal(size=len(names)) * 0.01
+        qd = rng.normal(size=len(names)) * 0.01
+        qd[names.index("GeAz")] = rng.uniform(0.8, 1.2)
+        q[i_drtr] = (1.0 if n % 2 else -1.0) * rng.uniform(1e-4, 1e-3)     # the shaft torque's sign
+        t = rng.uniform(0.0, 30.0)
+        acc, code = rhs.accelerations(t, q, qd)
+        assert code == 0
+        M, F = rhs(t, q, qd)
+        q_all, qd_all, _ = eq.full_state(q, qd, t)
+        gen, nodes = built.loads(t, q_all, qd_all)
+        Mr, Fr = eq.evaluate_reference(q, qd, t, node_forces=nodes or None, generalized=gen)
+        factors.add(round(float(rhs.packed.data[1][k, LOSS_K]), 12))     # the factor it decided
+        out += [(f"accelerations #{n}", np.linalg.solve(Mr, Fr), acc), (f"M #{n}", Mr, M), (f"F #{n}", Fr, F)]
+    assert factors == {round(1.0 / eta, 12), round(eta, 12)}, factors
+    return out
 
 
 def channel_pairs(built, rng, what, n=6, speeds=(0.3, 1.6)):

@@ -427,12 +427,12 @@ def channels(built, integ, wanted=None):
 def shaft_power(data: dict, turbine) -> dict:
     """Where RotTorq [kN m] came from a reaction (a rigid drivetrain, see
     `shaft_torque` for the spring): LSShftTq, RotPwr [kW] = RotTorq * rotor
-    speed and HSShftTq = RotTorq / GBRatio [kN m]; and, with either,
-    HSShftPwr [kW] = HSShftTq * generator speed (ElastoDyn.f90 CalcOutput;
-    GBoxEff 100 %)."""
+    speed and HSShftTq = RotTorq / GBRatio [kN m] (less the gearbox losses,
+    `_torque_channels`); and, with either, HSShftPwr [kW] = HSShftTq *
+    generator speed (ElastoDyn.f90 CalcOutput)."""
     if "RotTorq" not in data:
         return {}
-    out = {} if "RotPwr" in data else _torque_channels(data["RotTorq"], data["RotSpeed"], turbine.gearbox_ratio)
+    out = {} if "RotPwr" in data else _torque_channels(data["RotTorq"], data["RotSpeed"], turbine)
     hss = out.get("HSShftTq", data.get("HSShftTq"))
     out["HSShftPwr"] = hss * data["GenSpeed"] * np.pi / 30.0
     return out
@@ -535,19 +535,24 @@ def shaft_torque(built, coord, rot_speed_rpm) -> dict:
     the moment about the shaft the rotor exerts on it, inertia included)
     where the ElastoDyn drivetrain spring carries it: with DrTr free, the
     rotor's equation makes it the spring-damper torque k DrTr + c DrTr'.
-    RotPwr [kW] = RotTorq * rotor speed; HSShftTq [kN m] = RotTorq / GBRatio."""
+    RotPwr [kW] = RotTorq * rotor speed; HSShftTq [kN m] (`_torque_channels`)."""
     dt = built.effect("drivetrain")
     if dt is None or dt.options["model"] != "elastodyn":
         return {}
     q, qd = coord("DrTr")
-    return _torque_channels((dt.k_lss * q + dt.c_lss * qd) / 1e3, rot_speed_rpm, built.model.turbine.gearbox_ratio)
+    return _torque_channels((dt.k_lss * q + dt.c_lss * qd) / 1e3, rot_speed_rpm, built.model.turbine)
 
 
-def _torque_channels(torque, rot_speed_rpm, gearbox_ratio) -> dict:
+def _torque_channels(torque, rot_speed_rpm, turbine) -> dict:
     """RotTorq = LSShftTq [kN m], RotPwr [kW] = RotTorq * rotor speed, HSShftTq
-    [kN m] = RotTorq / GBRatio, of the low-speed shaft torque `torque` [kN m]."""
+    [kN m] = RotTorq eta^sign(RotTorq) / GBRatio (the gearbox efficiency eta:
+    its losses, ElastoDyn's GBoxEffFac; `multibody.gearbox`), of the
+    low-speed shaft torque `torque` [kN m]."""
+    torque = np.asarray(torque, float)
+    eta = turbine.gearbox_efficiency
+    passed = torque * np.where(torque >= 0.0, eta, 1.0 / eta) if eta != 1.0 else torque
     return {"RotTorq": torque, "LSShftTq": torque, "RotPwr": torque * rot_speed_rpm * np.pi / 30.0,
-            "HSShftTq": torque / gearbox_ratio}
+            "HSShftTq": passed / turbine.gearbox_ratio}
 
 
 def yaw_moment(built, coord) -> dict:

@@ -80,7 +80,7 @@ from modesel.model.flexible_beam import (FieldShapes, beam_quadrature, build_fle
                                          elastodyn_twisted, evaluate_field, interpolate_fine, tip_joint,
                                          twist_correction)
 from modesel.model.flexible_beam import elastodyn_nodes as elastodyn_midpoint_nodes
-from modesel.multibody.system import System
+from modesel.multibody.system import GearboxLoss, System
 from modesel.vocabulary import (BLADE_FIELDS, FIELD_DIRECTION, RIGID_DOFS, SHAFT_THRUST_REACTION, TOWER_BASE_REACTION,
                                 TOWER_BASE_REACTION_X, TOWER_FIELDS, TOWER_LOAD_REACTIONS, SHAFT_LOAD_REACTIONS, field_dofs, is_blade_body, is_blade_field,
                                 root_reaction)
@@ -531,7 +531,11 @@ def build_turbine(turbine, modeset: ModeSet, *, free=(), fixed=None, prescribed=
         for dofs in fdofs.get(f, []):
             elastic += list(dofs)
     free_all = elastic + [d for d in RIGID_DOFS if d in free]
-    system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0)
+    # ElastoDyn's gearbox friction on the generator azimuth's equation (GBoxEff < 100 %, multibody/gearbox.py)
+    loss = GearboxLoss("generator", "GeAz", t.gearbox_efficiency) if t.gearbox_efficiency < 1.0 else None
+    if loss is not None and drivetrain != "elastodyn":
+        raise ValueError("gearbox losses are modelled with the elastodyn drivetrain only")
+    system = System(bodies, free_all, fixed, prescribed, t.gravity if gravity else 0.0, gearbox_loss=loss)
     return TurbineModel(system, t, modeset, fdofs, tips, shapes, weights, spans, float(pitch), drivetrain,
                         reaction_names, blade_fields, blade_twist, bool(include_blades and blade_ed),
                         blade_slope, tower_elastodyn_nodes=bool(tower_ed))

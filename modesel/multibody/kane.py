@@ -154,6 +154,12 @@ class KaneEquations:
             self.bodies.append(BodyArrays(b, joint, flex))
         self.body_index = {b.name: i for i, b in enumerate(system.bodies)}
         self.n_bodies = len(self.bodies)
+        #: (body position, coordinate position, efficiency) of a lossy gearbox
+        #: (`System.gearbox_loss`) acting on a free coordinate, else None
+        loss = system.gearbox_loss
+        self.loss = None
+        if loss is not None and loss.efficiency < 1.0 and loss.coordinate in system.free:
+            self.loss = (self.body_index[loss.body], self.index[loss.coordinate], float(loss.efficiency))
 
     # ------------------------------------------------------------------ state
     def full_state(self, q, qd, t):
@@ -367,16 +373,31 @@ class KaneEquations:
         F += Jb.T @ fy
 
     def evaluate(self, q, qd, t=0.0, node_forces=None, generalized=None):
-        """(M, F) for the free coordinates: M qdd = F (eq. 22)."""
+        """(M, F) for the free coordinates: M qdd = F (eq. 22), with a lossy
+        gearbox's row (`gearbox.with_losses`; M then not symmetric)."""
         q_all, qd_all, qdd_p = self.full_state(q, qd, t)
         M, F = self._kernel_free_rows.full(q_all, qd_all, generalized, node_forces)
+        if self.loss is not None:
+            M, F = self._with_losses(M, F, q_all, qd_all, qdd_p, generalized)
         return self._restrict(M, F, qdd_p)
 
     def evaluate_reference(self, q, qd, t=0.0, node_forces=None, generalized=None):
         """`evaluate` with the numpy reference."""
         q_all, qd_all, qdd_p = self.full_state(q, qd, t)
         M, F = self.evaluate_full_reference(q_all, qd_all, node_forces, generalized)
+        if self.loss is not None:
+            M, F = self._with_losses(M, F, q_all, qd_all, qdd_p, generalized)
         return self._restrict(M, F, qdd_p)
+
+    def _with_losses(self, M, F, q_all, qd_all, qdd_p, generalized):
+        """M and F (all coordinates) with the lossy gearbox's row (numpy reference)."""
+        from modesel.multibody.gearbox import rigid_row, with_losses
+        k, g, eta = self.loss
+        body = self.bodies[k][0]
+        st = self.kinematics(q_all, qd_all)[k]
+        r, bias = rigid_row(body.mass, body.cm, body.inertia, st, g, self.gravity)
+        given = 0.0 if generalized is None else float(generalized[g])
+        return with_losses(M, F, self.free_idx, self.presc_idx, qdd_p, g, r, bias, given, eta)
 
     def _restrict(self, M, F, qdd_p):
         """Free rows and columns; prescribed accelerations to the right (eq. 21-22)."""

@@ -24,7 +24,9 @@ eq. 4-22, Appendix A and D1/D4), reorganised for speed only:
   `invariant_sums`, called through a pointer in the packed data, outside
   this file: compiled apart, it does not lengthen the compile of every loop
   that calls `_flexible`);
-- the mass matrix of the free coordinates is solved by Cholesky.
+- the mass matrix of the free coordinates is solved by Cholesky (with a
+  lossy gearbox, whose row makes it unsymmetric, by Gaussian elimination in
+  the cfunc `gearbox_loss`, called through a pointer in the packed data).
 
 Kernels take the packed arrays `data` and reusable `work` arrays (tuples).
 All compiled code of the engine's equations is in this one file, but for the
@@ -63,8 +65,8 @@ _FAST = {"reassoc", "contract", "nsz"}
 
 # body_int columns
 (PARENT, KIND, ROT0, NROT, SH0, NSH, COL0, NCOL, NODE0, NNODE, NE, E0, HAS_S, HAS_JP, HAS_ETA, HAS_A,
- PHI0, S0, ETA0, KD0, INV0, NS, SIX0, LOAD0, NLOAD) = range(25)
-N_INT = 25
+ PHI0, S0, ETA0, KD0, INV0, NS, SIX0, LOAD0, NLOAD, LOSS) = range(26)
+N_INT = 26
 # INV0: offset of a flexible body's invariants in the float pool (0: it
 # takes the node sums), NS its number of shortening modes, SIX0 the offset of
 # its header for the invariant route in the int pool (`invariant_sums`:
@@ -72,11 +74,14 @@ N_INT = 25
 # shortening modes, position of each elastic coordinate among them).
 # LOAD0, NLOAD: a flexible body's rows of the node loads (fnodes): its nodes
 # (LOAD0 = NODE0), or its load points (`packing.with_load_points`)
+# LOSS: 1 + the coordinate whose equation the body reaches through a lossy
+# gearbox (`gearbox_loss.py`; 0: none), with its efficiency in body_float LOSS_ETA
 # body kinds
 SKIP, RIGID, FLEX, LUMPED = 0, 1, 2, 3
 # body_float columns: offset(3) R0(9) mass cm(3) inertia_cm(9) axis(3) polar tensor(9) shortening axis(3)
-OFF, R0, MASS, CM, INERTIA, AXIS, POLAR, SH_E = 0, 3, 12, 13, 16, 25, 28, 37
-N_FLOAT = 40
+# gearbox efficiency, its loss factor last decided (`gearbox_loss.py`)
+OFF, R0, MASS, CM, INERTIA, AXIS, POLAR, SH_E, LOSS_ETA, LOSS_K = 0, 3, 12, 13, 16, 25, 28, 37, 40, 41
+N_FLOAT = 42
 
 
 # signature of a loads function (the effects' loads inside the compiled loop):
@@ -96,6 +101,7 @@ N_FLOAT = 40
 # calls it is compiled once for every scene and cached); a problem without
 # loads passes `no_loads.no_loads`, which adds none.
 _F1, _F2, _F3, _I1 = types.float64[::1], types.float64[:, ::1], types.float64[:, :, ::1], types.int64[::1]
+_I2 = types.int64[:, ::1]
 LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _F1, _F1, types.int64)
 
 # signature of the invariant route of a flexible body (`invariant_sums.py`,
@@ -104,14 +110,22 @@ LOADS_SIG = types.int64(types.float64, _F1, _F1, _F3, _F3, _F1, _F2, _I1, _I1, _
 # its inputs and outputs, node forces) -> mass
 INVARIANT_SIG = types.float64(types.int64, types.int64, _I1, _F1, _F1, _F2)
 
+# signature of a lossy gearbox's row and solve (`gearbox_loss.gearbox_loss`, called by
+# `free_system` through the pointer in data[14] where a body has LOSS > 0): (body,
+# solve mode, free, prescribed, qdd_p, gen, body_int, body_float, int pool, the body's
+# R (3,3), vec (5,3) and Jw (3,n), scratch (3,3), M, F, Mf, Ff, out, offset of the
+# accelerations in out) -> 1, or 0 if the mass matrix is singular
+LOSS_SIG = types.int64(types.int64, types.int64, _I1, _I1, _F1, _F1, _I2, _F2, _I1, _F2, _F2, _F2,
+                       _F2, _F2, _F1, _F2, _F1, _F1, types.int64)
+
 # numba types of the kernel's arguments: prob and rwork (`compiled.CompiledRHS`),
 # data and work (`packing.pack`; the layouts above and in `_work_arrays`)
-_I2, _B1 = types.int64[:, ::1], types.boolean[::1]
+_B1 = types.boolean[::1]
 PROB_T = types.Tuple((_I1, _I1, _F2, _F1, _F1, _I2, _F2, _F2, _I1,
                       types.Tuple((types.FunctionType(LOADS_SIG), _I1, _F1, _F1))))
 RWORK_T = types.Tuple((_F2, _F2, _F1, _F2, _F1))
 DATA_T = types.Tuple((_I2, _F2, _I1, _I1, _F2, _F1, _F3, _F3, _F2, _F1, _F1, _F1, _B1,
-                      types.FunctionType(INVARIANT_SIG)))
+                      types.FunctionType(INVARIANT_SIG), types.FunctionType(LOSS_SIG)))
 WORK_T = types.Tuple((_F3, _F3, _F3, _F3, _F3, _F3, _F2, _F3, _F2, _F1, _F2, _F3, _F2, _F1, _F1, _F2))
 
 # signature of `free_system`, the right-hand side, which the loops below and in
@@ -833,7 +847,9 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     checking the state (finite, |q| <= bounds) and the accelerations as
     integrate.py does. solve = SOLVE_HELD: as SOLVE, with the BEM loads and
     the tower drag those of the previous call (the columns of Radau's
-    Jacobian: `implicit.jacobian`); NO_SOLVE: M_ff and F_f only.
+    Jacobian: `implicit.jacobian`); NO_SOLVE: M_ff and F_f only. A body
+    with a lossy gearbox (body_int LOSS) has its equation's row and the
+    solve done by data[14] (`gearbox_loss.gearbox_loss`).
     Returns (status, index of an offending coordinate or -1).
 
     prob = (free, prescribed, prescribed (value, rate, accel), fixed values,
@@ -894,10 +910,24 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
         Ff[a] = v
         for b in range(nf):
             Mf[a, b] = M[free[a], free[b]]
+    for a in range(nf):
+        out[a] = x[nf + a]
+    bi = data[0]
+    for b in range(bi.shape[0]):
+        if bi[b, LOSS] > 0:
+            # a lossy gearbox: its row and the accelerations (solved) by `gearbox_loss.gearbox_loss`
+            if data[14](b, solve, free, presc, qddp, gen, bi, data[1], data[2], work[0][b], work[1][b],
+                        work[3][b], work[11][0], M, F, Mf, Ff, out, nf) == 0:
+                return SINGULAR, -1
+            if solve == NO_SOLVE:
+                return OK, -1
+            for a in range(nf):
+                if not np.isfinite(out[nf + a]):
+                    return NON_FINITE_ACC, -1
+            return OK, -1
     if solve == NO_SOLVE:
         return OK, -1
     for a in range(nf):
-        out[a] = x[nf + a]
         out[nf + a] = Ff[a]
     if not cholesky_solve(Mf, out[nf:]):
         # not positive definite: Gaussian elimination, singular only at an exact zero pivot

@@ -7,7 +7,8 @@
      rotation coefficients (n_rot, n), rotation offsets, translation matrices
      A (nb, 3, n), shortening matrices G (nb, ns, ns), node positions s0
      (N_nodes, 3), node masses, node polar inertias, float pool, active mask,
-     invariant route: `invariant_sums` or a stand-in, `invariant_function`)
+     invariant route: `invariant_sums` or a stand-in, `invariant_function`;
+     gearbox losses: `gearbox_loss` or a stand-in, `loss_function`)
 
 (the int pool holds each body's Jacobian columns, elastic coordinates and
 shortening coordinates, and for a body on the invariant route its
@@ -31,10 +32,10 @@ import numba.experimental.function_type  # noqa: F401  (numba's typeof of `_Unus
 import numpy as np
 from numba import types
 
-from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S,
-                                          INERTIA, INV0, INVARIANT_SIG, KD0, KIND, LOAD0, LUMPED, MASS, N_FLOAT,
-                                          N_INT, NCOL, NE, NLOAD, NNODE, NODE0, NROT, NS, NSH, OFF, PARENT, PHI0,
-                                          POLAR, R0, RIGID, ROT0, S0, SH0, SH_E, SIX0, SKIP)
+from modesel.multibody.kernel import (AXIS, CM, COL0, E0, ETA0, FLEX, HAS_A, HAS_ETA, HAS_JP, HAS_S, INERTIA,
+                                      INV0, INVARIANT_SIG, KD0, KIND, LOAD0, LOSS, LOSS_ETA, LOSS_K, LOSS_SIG,
+                                      LUMPED, MASS, N_FLOAT, N_INT, NCOL, NE, NLOAD, NNODE, NODE0, NROT, NS, NSH,
+                                      OFF, PARENT, PHI0, POLAR, R0, RIGID, ROT0, S0, SH0, SH_E, SIX0, SKIP)
 from modesel.multibody import body_integrals
 from modesel.multibody.lumping import RigidPart, constant_placement, lump, rigid_equivalent
 
@@ -197,6 +198,14 @@ def pack(eq, active=None, invariants=None) -> Packed:
         if use:
             ipool[head + 4], ipool[head + 5] = bi[k, INV0], bi[k, PHI0]
     _lump_rigid_subtrees(eq, bi, bf)
+    if eq.loss is not None and active[eq.loss[1]]:
+        k, g, eta = eq.loss
+        body = eq.bodies[k][0]
+        if bi[k, KIND] not in (RIGID, SKIP) or body.mass != 0.0:
+            raise ValueError(f"the gearbox's body {body.name} must be a massless rigid body (an inertia) turning "
+                             f"with its coordinate")
+        # the loss factor held until a solve decides it: the shaft driving the generator (as ElastoDyn starts)
+        bi[k, LOSS], bf[k, LOSS_ETA], bf[k, LOSS_K] = g + 1, eta, 1.0 / eta
     n_max = max([bi[k, NNODE] for k, _ in flex_nodes] + [1])
     nrot = max(len(rot_axis), 1)
     rc = np.zeros((nrot, n))
@@ -204,7 +213,7 @@ def pack(eq, active=None, invariants=None) -> Packed:
         rc[:len(rot_c)] = np.array(rot_c)
     data = (bi, bf, np.array(ipool + [0], np.int64), np.array(rot_axis + [0], np.int64), rc,
             np.array(rot_off + [0.0]), A, shG, s0, nm, Jp, np.concatenate(fpool), active.copy(),
-            invariant_function(bool(np.any(bi[:, INV0] > 0))))
+            invariant_function(bool(np.any(bi[:, INV0] > 0))), loss_function(bool(np.any(bi[:, LOSS] > 0))))
     work = _work_arrays(nb, n, ne_max, n_max) + (np.zeros(scratch), np.zeros((ne_max, ne_max)))
     return Packed(data, work, n, nb, node_start)
 
@@ -286,22 +295,26 @@ def with_load_points(packed: Packed, eq, transfers: dict) -> Packed:
 
 class _Unused(types.WrapperAddressProtocol):
     """Stands in for `invariant_sums.invariant_sums` in a system where no
-    body takes the invariant route: the same numba type (so that one
-    compiled kernel serves both), without loading the cfunc (about 35 ms).
-    No body calls it; a call would return NaN, which the kernel reports as
-    non-finite accelerations."""
+    body takes the invariant route, or for `gearbox_loss.gearbox_loss` in
+    one without gearbox losses: the same numba type (so that one compiled
+    kernel serves both), without loading the cfunc (about 35 ms). No body
+    calls it; a call would return NaN (the invariant route: non-finite
+    accelerations) or 0 (the gearbox: a singular mass matrix), which the
+    kernel reports."""
 
-    def __init__(self):
-        self._nan = ctypes.CFUNCTYPE(ctypes.c_double)(lambda: float("nan"))
+    def __init__(self, signature, restype, value):
+        self._signature = signature
+        self._f = ctypes.CFUNCTYPE(restype)(lambda: value)
 
     def __wrapper_address__(self):
-        return ctypes.cast(self._nan, ctypes.c_void_p).value
+        return ctypes.cast(self._f, ctypes.c_void_p).value
 
     def signature(self):
-        return INVARIANT_SIG
+        return self._signature
 
 
-_UNUSED = _Unused()
+_UNUSED = _Unused(INVARIANT_SIG, ctypes.c_double, float("nan"))
+_NO_LOSS = _Unused(LOSS_SIG, ctypes.c_int64, 0)
 
 
 def invariant_function(needed: bool):
@@ -311,6 +324,16 @@ def invariant_function(needed: bool):
         from modesel.multibody.invariant_sums import invariant_sums
         return invariant_sums
     return _UNUSED
+
+
+def loss_function(needed: bool):
+    """data[14] of a packed system: the gearbox losses' cfunc where a body has
+    them (`gearbox_loss`, imported, so compiled or loaded, on first use), else
+    a stand-in."""
+    if needed:
+        from modesel.multibody.gearbox_loss import gearbox_loss
+        return gearbox_loss
+    return _NO_LOSS
 
 
 def _lump_rigid_subtrees(eq, bi, bf):

@@ -33,6 +33,20 @@ class Prescribed:
                 self.rate + self.accel * t, self.accel)
 
 
+@dataclass(frozen=True)
+class GearboxLoss:
+    """A lossy gearbox between the rotor and `body` (ElastoDyn's GBoxEff < 100 %):
+    the generalised forces that reach coordinate `coordinate`'s equation
+    through the gearbox (`body`'s inertia and every generalised force given
+    on that coordinate: the generator torque) are divided by `efficiency`
+    (0 < efficiency <= 1) while the low-speed shaft drives the gearbox and
+    multiplied by it while the shaft is driven (`multibody.gearbox`)."""
+
+    body: str
+    coordinate: str
+    efficiency: float
+
+
 @dataclass
 class System:
     """Bodies (parents before children) and coordinate status.
@@ -40,6 +54,7 @@ class System:
     `free`: ordered names of the free coordinates. `fixed`: {name: value}.
     `prescribed`: {name: Prescribed}. Any coordinate used by a body and not
     listed is fixed at 0. `gravity` [m/s^2] acts along -z of the ground frame.
+    `gearbox_loss`: a `GearboxLoss`, or None for a lossless gearbox.
     """
 
     bodies: list
@@ -47,6 +62,7 @@ class System:
     fixed: dict = field(default_factory=dict)
     prescribed: dict = field(default_factory=dict)
     gravity: float = 9.80665
+    gearbox_loss: GearboxLoss | None = None
 
     def coordinate_names(self) -> list:
         """All coordinates: free first, then prescribed, then fixed/unlisted."""

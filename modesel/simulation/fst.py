@@ -4,7 +4,8 @@ What the case's modules become:
 
 - ElastoDyn (`turbine.elastodyn.read_elastodyn` and `scene_from_elastodyn` below):
   DOF flags, initial conditions, geometry, masses, modal damping,
-  drivetrain; the deck's polynomial mode shapes are the default mode set.
+  drivetrain with its gearbox losses (GBoxEff, `multibody.gearbox`); the
+  deck's polynomial mode shapes are the default mode set.
 - InflowWind (CompInflow = 1, `turbine.inflowwind.read_inflowwind`) -> the `wind`
   effect; still air (CompInflow = 0) -> zero wind when AeroDyn is on.
 - AeroDyn 15 (CompAero = 2, `turbine.aerodyn.aerodyn_case_options`) -> the `aero`
@@ -43,8 +44,8 @@ Anything switched on that modesel does not model is a one-line
 `ModeselError` naming the file and the input: BeamDyn or simplified
 ElastoDyn (CompElast 2, 3), external inflow, AeroDisk or external loads,
 SeaState, HydroDyn, SubDyn, moorings, ice, soil, MHK, mirrored or several
-rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, furling, a gearbox
-efficiency below 100 % (GBoxEff), AzimB1Up, and the options listed in the
+rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, furling,
+AzimB1Up, and the options listed in the
 InflowWind, AeroDyn and ServoDyn readers.
 """
 from __future__ import annotations
@@ -97,8 +98,6 @@ def _check_elastodyn(ed: InputFile):
     for label in ("PtfmSway", "PtfmHeave", "PtfmRoll", "PtfmYaw"):
         if label in ed and ed.number(label) != 0.0:
             raise ed.unsupported(label, "a platform offset modesel has no coordinate for")
-    if ed.number("GBoxEff") != 100.0:
-        raise ed.unsupported("GBoxEff", "gearbox losses")
     if "AzimB1Up" in ed and ed.number("AzimB1Up") != 0.0:
         raise ed.unsupported("AzimB1Up", "an azimuth offset of the outputs")
     if ed.flag("YawDOF", default=False) and "YawFrctMod" in ed and ed.integer("YawFrctMod") != 0:

@@ -184,6 +184,11 @@ def read_elastodyn(path) -> Turbine:
         raise ModeselError(f"TipRad ({tip_radius:g} m) must exceed HubRad ({hub_radius:g} m)",
                            file=str(ed_path), field="TipRad")
 
+    gearbox_efficiency = num("GBoxEff", "GBoxEff")
+    if not 0.0 < gearbox_efficiency <= 100.0:
+        raise ModeselError(f"GBoxEff must be in (0, 100] %, got {gearbox_efficiency:g}", file=str(ed_path),
+                           field="GBoxEff")
+
     tower_file = referenced_file(ed_path, ed["TwrFile"], "TwrFile")
     tower, tower_shapes = _tower(tower_file, tower_height - tower_base)
     blade_files = [referenced_file(ed_path, ed[f"BldFile{k}"], f"BldFile({k})") for k in per_blade]
@@ -235,7 +240,7 @@ def read_elastodyn(path) -> Turbine:
         platform_cm=(num("PtfmCMxt", "PtfmCMxt"), num("PtfmCMyt", "PtfmCMyt"),
                      num("PtfmCMzt", "PtfmCMzt")),
         platform_ref_z=num("PtfmRefzt", "PtfmRefzt"),
-        gearbox_ratio=num("GBRatio", "GBRatio"), gearbox_efficiency=num("GBoxEff", "GBoxEff") / 100.0,
+        gearbox_ratio=num("GBRatio", "GBRatio"), gearbox_efficiency=gearbox_efficiency / 100.0,
         drivetrain_stiffness=num("DTTorSpr", "DTTorSpr"), drivetrain_damping=num("DTTorDmp", "DTTorDmp"),
         gravity=gravity,
         elastodyn_shapes={**tower_shapes, **blade_shapes},

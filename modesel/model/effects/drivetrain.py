@@ -60,6 +60,9 @@ class Drivetrain(Effect):
         N = t.gearbox_ratio
         o = self.options
         if o["model"] == "two_spring":
+            if t.gearbox_efficiency < 1.0:
+                raise self.error(f"gearbox losses (efficiency {t.gearbox_efficiency * 100:g} %, ElastoDyn's "
+                                 f"GBoxEff) are modelled with model = \"elastodyn\" only", "model")
             spec.drivetrain = "two_spring"
             spec.free.append("HSSTw")
             spec.gearbox_inertia = (o["gearbox_inertia"] if o["gearbox_inertia"] is not None

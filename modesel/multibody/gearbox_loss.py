@@ -1,0 +1,141 @@
+"""Compiled twin of `gearbox.with_losses` (a lossy gearbox's row of the
+equations and their solve; module doc of `gearbox`), a numba cfunc of
+`kernel.LOSS_SIG` that the right-hand side `kernel.free_system` calls
+through the pointer in the packed data (data[14]) where a body has a
+gearbox loss.
+
+Its own module and a cfunc, as `invariant_sums`: compiled inside the
+kernel's right-hand side it lengthened every first run's compile by about
+3 s (the right-hand side's cfunc alone, empty cache: 15.4-16.0 s -> 18.4-19.2
+s); behind a pointer, only a scene with gearbox losses compiles it, on first
+use (`packing.loss_function`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import cfunc, njit
+
+from modesel.multibody.kernel import (COL0, INERTIA, KIND, LOSS, LOSS_ETA, LOSS_K, LOSS_SIG, NCOL, RIGID, SOLVE,
+                                      SOLVE_HELD, cholesky_solve, lu_solve)
+
+
+@njit(cache=True)
+def _free_rows(free, presc, qddp, M, F, Mf, Ff):
+    """Mf = M_ff and Ff = F_f - M_fp qdd_p (eq. 21-22)."""
+    nf = free.shape[0]
+    for a in range(nf):
+        v = F[free[a]]
+        for k in range(presc.shape[0]):
+            v -= M[free[a], presc[k]] * qddp[presc[k]]
+        Ff[a] = v
+        for b in range(nf):
+            Mf[a, b] = M[free[a], free[b]]
+
+
+@njit(cache=True)
+def _solve_free(free, presc, qddp, M, F, Mf, Ff, acc, symmetric):
+    """acc = M_ff^-1 F_f from the full M and F (Mf, Ff rebuilt, Mf then
+    overwritten): Cholesky where `symmetric`, else (or where that fails)
+    Gaussian elimination; False if singular."""
+    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    for a in range(free.shape[0]):
+        acc[a] = Ff[a]
+    if symmetric and cholesky_solve(Mf, acc):
+        return True
+    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    for a in range(free.shape[0]):
+        acc[a] = Ff[a]
+    return lu_solve(Mf, acc)
+
+
+def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, Ig, M, F, Mf, Ff, out, off):
+    """Body b (a massless rigid body: an inertia about its origin; its frame
+    R, vec = [r, v, w, a, alpha] and Jw) reaches the equation of coordinate
+    g = bi[b, LOSS] - 1 through a gearbox of efficiency eta = bf[b, LOSS_ETA].
+    Its row r of M on g (r_j = Jw_g^T I Jw_j) and its part of F_g (the bias
+    -Jw_g^T (I alpha + w x I w)), with the generalised force given on g
+    (gen[g]: the generator torque), are scaled by k = 1/eta while the shaft
+    torque sigma = r qdd - bias - gen[g] >= 0, else by k = eta: the sign that
+    the accelerations solved with it reproduce (solve = SOLVE; the factor is
+    kept in bf[b, LOSS_K]). NO_SOLVE and SOLVE_HELD (the linear model's and
+    Radau's differences) hold the factor last kept, as ElastoDyn holds the
+    previous step's sign: sigma = 0 where the factor changes, so the
+    solution is continuous there, but M and F each jump. Writes row g of M
+    and F with the losses, then Mf, Ff from them; unless NO_SOLVE, the
+    accelerations into out[off:]. Returns 0 if the mass matrix is singular."""
+    g = bi[b, LOSS] - 1
+    eta = bf[b, LOSS_ETA]
+    n = M.shape[0]
+    nf = free.shape[0]
+    r = np.zeros(n)
+    bias = 0.0
+    if bi[b, KIND] == RIGID:
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for k in range(3):
+                    for m in range(3):
+                        s += R[i, k] * bf[b, INERTIA + 3 * k + m] * R[j, m]
+                Ig[i, j] = s
+        w, al = vec[2], vec[4]
+        u = np.zeros(3)
+        Iw = np.zeros(3)
+        for i in range(3):
+            for k in range(3):
+                u[i] += Ig[i, k] * Jw[k, g]
+                Iw[i] += Ig[i, k] * w[k]
+        gyr = (w[1] * Iw[2] - w[2] * Iw[1], w[2] * Iw[0] - w[0] * Iw[2], w[0] * Iw[1] - w[1] * Iw[0])
+        for i in range(3):
+            bias -= u[i] * al[i] + Jw[i, g] * gyr[i]
+        c0, nc = bi[b, COL0], bi[b, NCOL]
+        for cc in range(nc):
+            col = ipool[c0 + cc]
+            r[col] = u[0] * Jw[0, col] + u[1] * Jw[1, col] + u[2] * Jw[2, col]
+    given = gen[g]
+    row = M[g].copy()
+    Fg = F[g]
+    x = np.empty(nf)
+    if solve != SOLVE:
+        factor = bf[b, LOSS_K]
+        for j in range(n):
+            M[g, j] = row[j] + (factor - 1.0) * r[j]
+        F[g] = Fg + (factor - 1.0) * (bias + given)
+        if solve == SOLVE_HELD:
+            if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
+                return 0
+            for a in range(nf):
+                out[off + a] = x[a]
+        _free_rows(free, presc, qddp, M, F, Mf, Ff)
+        return 1
+    # the shaft torque's sign without losses, then with the factor it gives
+    qdd = np.zeros(n)
+    for k in range(presc.shape[0]):
+        qdd[presc[k]] = qddp[presc[k]]
+    if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, True):
+        return 0
+    factor = 1.0
+    for attempt in range(3):
+        for a in range(nf):
+            qdd[free[a]] = x[a]
+        sigma = -bias - given
+        for j in range(n):
+            sigma += r[j] * qdd[j]
+        wanted = 1.0 / eta if sigma >= 0.0 else eta
+        if attempt > 0 and wanted == factor:
+            break
+        if attempt == 2:            # neither sign reproduces itself: keep the last
+            break
+        factor = wanted
+        for j in range(n):
+            M[g, j] = row[j] + (factor - 1.0) * r[j]
+        F[g] = Fg + (factor - 1.0) * (bias + given)
+        if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
+            return 0
+    bf[b, LOSS_K] = factor
+    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    for a in range(nf):
+        out[off + a] = x[a]
+    return 1
+
+
+gearbox_loss = cfunc(LOSS_SIG, cache=True)(_gearbox_loss)
