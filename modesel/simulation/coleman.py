@@ -81,6 +81,7 @@ def multiblade(built, groups: dict, qd0: np.ndarray, omega: float) -> LinearMode
     MB = np.zeros((n, n))
     CB = np.zeros((n, n))
     KB = np.zeros((n, n))
+    rhs = built.rhs()       # compiled, as `modal.linearize_scene`
     for k in range(count):
         psi = az0 + 2.0 * np.pi * k / count
         q0 = np.zeros(n)
@@ -89,7 +90,7 @@ def multiblade(built, groups: dict, qd0: np.ndarray, omega: float) -> LinearMode
             t = (psi - az0) / omega
         elif count > 1:
             q0[free_azimuth] = psi
-        lin = linearize(built.M_F, q0, qd0, names, t=t)
+        lin = linearize(rhs, q0, qd0, names, t=t)
         T1, T2, T3 = mbc_matrices(n, groups, psi)
         Ti = np.linalg.inv(T1)
         MB += Ti @ lin.M @ T1

@@ -29,7 +29,10 @@ def linearize_scene(scene: Scene, modeset: ModeSet | None = None, rpm: float | N
     modes (Jonkman 2009 Table 9-1 naming). Otherwise (rotor on a rigid
     support) the blades are analysed in the rotating frame and labelled by
     their own DOF (B1F1 ...). Labels: `multibody.linearize` module doc.
-    Returns (modes, LinearModel)."""
+    The equations are the compiled right-hand side's (`Built.rhs`, its
+    `linear_model`), whose gearbox losses hold the factor of the initial
+    state, as ElastoDyn's linearisation holds the previous step's sign
+    (`multibody.gearbox`). Returns (modes, LinearModel)."""
     if rpm is not None:
         scene = replace(scene, constant_speed={ROTOR_AZIMUTH: rpm * np.pi / 30.0},
                         free=tuple(d for d in scene.free if d != ROTOR_AZIMUTH))
@@ -38,7 +41,7 @@ def linearize_scene(scene: Scene, modeset: ModeSet | None = None, rpm: float | N
     qd0 = rotor_rates(built)
     groups = blade_groups(names, built.model.turbine.num_blades)
     if groups is None:
-        lin = linearize(built.M_F, np.zeros_like(built.q0), qd0, names)
+        lin = linearize(built.rhs(), np.zeros_like(built.q0), qd0, names)
         return modes(lin), lin
     omega = rotor_speed(built, qd0)
     lin = multiblade(built, groups, qd0, omega)
