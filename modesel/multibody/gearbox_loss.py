@@ -16,20 +16,7 @@ import numpy as np
 from numba import cfunc, njit
 
 from modesel.multibody.kernel import (COL0, INERTIA, KIND, LOSS, LOSS_ETA, LOSS_K, LOSS_SIG, NCOL, RIGID, SOLVE,
-                                      SOLVE_HELD, cholesky_solve, lu_solve)
-
-
-@njit(cache=True)
-def _free_rows(free, presc, qddp, M, F, Mf, Ff):
-    """Mf = M_ff and Ff = F_f - M_fp qdd_p (eq. 21-22)."""
-    nf = free.shape[0]
-    for a in range(nf):
-        v = F[free[a]]
-        for k in range(presc.shape[0]):
-            v -= M[free[a], presc[k]] * qddp[presc[k]]
-        Ff[a] = v
-        for b in range(nf):
-            Mf[a, b] = M[free[a], free[b]]
+                                      SOLVE_HELD, cholesky_solve, free_rows, lu_solve)
 
 
 @njit(cache=True)
@@ -37,12 +24,12 @@ def _solve_free(free, presc, qddp, M, F, Mf, Ff, acc, symmetric):
     """acc = M_ff^-1 F_f from the full M and F (Mf, Ff rebuilt, Mf then
     overwritten): Cholesky where `symmetric`, else (or where that fails)
     Gaussian elimination; False if singular."""
-    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    free_rows(free, presc, qddp, M, F, Mf, Ff)
     for a in range(free.shape[0]):
         acc[a] = Ff[a]
     if symmetric and cholesky_solve(Mf, acc):
         return True
-    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    free_rows(free, presc, qddp, M, F, Mf, Ff)
     for a in range(free.shape[0]):
         acc[a] = Ff[a]
     return lu_solve(Mf, acc)
@@ -105,7 +92,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
                 return 0
             for a in range(nf):
                 out[off + a] = x[a]
-        _free_rows(free, presc, qddp, M, F, Mf, Ff)
+        free_rows(free, presc, qddp, M, F, Mf, Ff)
         return 1
     # the shaft torque's sign without losses, then with the factor it gives
     qdd = np.zeros(n)
@@ -132,7 +119,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
         if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
             return 0
     bf[b, LOSS_K] = factor
-    _free_rows(free, presc, qddp, M, F, Mf, Ff)
+    free_rows(free, presc, qddp, M, F, Mf, Ff)
     for a in range(nf):
         out[off + a] = x[a]
     return 1

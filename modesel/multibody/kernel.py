@@ -829,6 +829,20 @@ def lu_solve(A, x):
     return True
 
 
+@njit(cache=True)
+def free_rows(free, presc, qddp, M, F, Mf, Ff):
+    """Mf = M_ff and Ff = F_f - M_fp qdd_p (eq. 21-22) from M and F over all
+    coordinates."""
+    nf = free.shape[0]
+    for a in range(nf):
+        v = F[free[a]]
+        for k in range(presc.shape[0]):
+            v -= M[free[a], presc[k]] * qddp[presc[k]]
+        Ff[a] = v
+        for b in range(nf):
+            Mf[a, b] = M[free[a], free[b]]
+
+
 #: the `solve` argument of `free_system` (numpy int64s, typed int64 as in
 #: SYSTEM_SIG; numba types a literal int as Literal[int]): M_ff and F_f only;
 #: also the accelerations; also the accelerations, with the effects' costly
@@ -903,13 +917,7 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
     if code != OK:
         return code, -1
     assemble(q_all, qd_all, gvec, fnodes, fflag, gen, data, work, M, F, False)
-    for a in range(nf):
-        v = F[free[a]]
-        for k in range(presc.shape[0]):
-            v -= M[free[a], presc[k]] * qddp[presc[k]]
-        Ff[a] = v
-        for b in range(nf):
-            Mf[a, b] = M[free[a], free[b]]
+    free_rows(free, presc, qddp, M, F, Mf, Ff)
     for a in range(nf):
         out[a] = x[nf + a]
     bi = data[0]
