@@ -24,8 +24,10 @@ process compiles the reaction loads too). A scene without effects does not
 compile the loads (28 s of one core, which it never calls; the first scene
 with effects compiles them beside loading the rest): the child compiles the
 invariant route (where used) and the loops, this process the right-hand
-side. All land in numba's cache, from which the simulation then loads them.
-Timings: README, Benchmarks.
+side. A scene with gearbox losses has this process compile their cfunc
+(`multibody.gearbox_loss`) too, when its right-hand side is packed (the
+child's share, the loads, is the longer). All land in numba's cache, from
+which the simulation then loads them. Timings: README, Benchmarks.
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).
