@@ -50,6 +50,7 @@ tolerances:
 - gearbox_losses, gearbox_losses_rigid, gearbox_coastdown: ElastoDyn's
   gearbox friction (GBoxEff 95 %; refused before), with the drivetrain DOF
   free and off, and a coast-down whose shaft torque changes sign;
+- azimuth_b1_up: ElastoDyn's AzimB1Up (refused before);
 - strain_gauges: ElastoDyn's blade and tower strain-gauge loads;
 - full_tower_drag, partial_tower_drag: tower drag with the .fst's air
   density, over AeroDyn's whole tower table or its upper part;
@@ -446,6 +447,24 @@ def test_gearbox_coastdown_matches_openfast():
     assert (out.RotTorq > 1.0).any() and (out.RotTorq < -1.0).any()
 
 
+def test_azimuth_b1_up_matches_openfast():
+    """ElastoDyn's AzimB1Up (refused before): steady_08 for 10 s with AzimB1Up
+    30 deg and Azimuth 20 deg, so blade 1 starts 10 deg before up (ElastoDyn:
+    GeAz = Azimuth - AzimB1Up - 90 deg) and the written Azimuth and
+    LSSGagPxa read 30 deg when it points up. Azimuth and LSSGagPxa within
+    0.05 deg (0.022 deg), Q_GeAz, the rotating shaft loads (LSShftFya,
+    LSSTipMya: frame a turns with blade 1's own azimuth), the root moments
+    and the deflections NRMSE <= 0.5 % (at most 0.12 %, RotSpeed)."""
+    out, ref = run("azimuth_b1_up")
+    assert out.Q_GeAz.iloc[0] == pytest.approx(np.deg2rad(20.0 - 30.0 - 90.0 + 360.0), abs=1e-4)
+    for c in ("Azimuth", "LSSGagPxa"):
+        wrapped = (np.interp(ref.Time, out.Time, out[c]) - ref[c] + 180.0) % 360.0 - 180.0
+        assert np.abs(wrapped).max() < 0.05, c
+    errs = {c: nrmse(out, ref, c) for c in ("Q_GeAz", "RotSpeed", "RootMxc1", "RootMyc1", "LSShftFya", "LSSTipMya",
+                                            "TTDspSS", "OoPDefl1")}
+    assert all(v <= 5e-3 for v in errs.values()), errs
+
+
 def gauge_errors(prefix, count, loose, loose_tolerance, quantities=("FL", "ML")):
     """Means of the last 20 s and NRMSE of case strain_gauges' channels
     starting with `prefix` (`count` of them) against OpenFAST's; the axes in
@@ -564,7 +583,9 @@ RERUN = {"rotating_release": (("tests/data/openfast_turbine/common",), RELEASE_C
                              "Wind1VelZ")),
          **{case: (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
                    ("RotSpeed", "RotTorq", "HSShftTq", "GenTq", "TTDspFA", "OoPDefl1"))
-            for case in ("gearbox_losses", "gearbox_losses_rigid", "gearbox_coastdown")}}
+            for case in ("gearbox_losses", "gearbox_losses_rigid", "gearbox_coastdown")},
+         "azimuth_b1_up": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
+                           ("Azimuth", "Q_GeAz", "RootMxc1", "LSSTipMya"))}
 
 
 @pytest.mark.slow

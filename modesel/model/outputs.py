@@ -385,12 +385,14 @@ def channels(built, integ, wanted=None):
     ge, ged = coord("GeAz")
     dt_, dtd = coord("DrTr")
     az = ge + dt_
-    data["Azimuth"] = np.mod(np.rad2deg(az), 360.0)
+    # ElastoDyn's Azimuth reads AzimB1Up when blade 1 points up (LSSTipPxa = GeAz + DrTr + AzimB1Up + 90 deg)
+    b1_up = model.turbine.azimuth_b1_up
+    data["Azimuth"] = np.mod(np.rad2deg(az + b1_up), 360.0)
     data["RotSpeed"] = (ged + dtd) * 30.0 / np.pi
     data["GenSpeed"] = ged * model.turbine.gearbox_ratio * 30.0 / np.pi
     # the shaft at its strain gauge, the generator's side of the drivetrain spring (ElastoDyn's
     # LSSGagPxa = GeAz + 90 deg, which modesel's GeAz includes; LSSGagVxa = GeAz')
-    data["LSSGagPxa"] = np.mod(np.rad2deg(ge), 360.0)
+    data["LSSGagPxa"] = np.mod(np.rad2deg(ge + b1_up), 360.0)
     data["LSSGagVxa"] = ged * 30.0 / np.pi
     fa = model.field_dofs.get("tower_fa", ())
     ss = model.field_dofs.get("tower_ss", ())
@@ -455,7 +457,7 @@ def shaft_loads(data: dict, turbine, wanted=None) -> dict:
         return {}
     fy, fz, my, mz = (data[n] for n in SHAFT_LOAD_SOURCES)
     my, mz = my + turbine.undersling * fz, mz - turbine.undersling * fy
-    az = np.deg2rad(data["Azimuth"])
+    az = np.deg2rad(data["Azimuth"]) - turbine.azimuth_b1_up        # blade 1's azimuth from up
     c, s = np.cos(az), np.sin(az)
     out = {"LSSTipMys": my, "LSSTipMzs": mz, "LSShftFya": c * fy + s * fz, "LSShftFza": -s * fy + c * fz,
            "LSSTipMya": c * my + s * mz, "LSSTipMza": -s * my + c * mz}

@@ -45,7 +45,7 @@ Anything switched on that modesel does not model is a one-line
 ElastoDyn (CompElast 2, 3), external inflow, AeroDisk or external loads,
 SeaState, HydroDyn, SubDyn, moorings, ice, soil, MHK, mirrored or several
 rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, furling,
-AzimB1Up, and the options listed in the
+and the options listed in the
 InflowWind, AeroDyn and ServoDyn readers.
 """
 from __future__ import annotations
@@ -98,8 +98,6 @@ def _check_elastodyn(ed: InputFile):
     for label in ("PtfmSway", "PtfmHeave", "PtfmRoll", "PtfmYaw"):
         if label in ed and ed.number(label) != 0.0:
             raise ed.unsupported(label, "a platform offset modesel has no coordinate for")
-    if "AzimB1Up" in ed and ed.number("AzimB1Up") != 0.0:
-        raise ed.unsupported("AzimB1Up", "an azimuth offset of the outputs")
     if ed.flag("YawDOF", default=False) and "YawFrctMod" in ed and ed.integer("YawFrctMod") != 0:
         raise ed.unsupported("YawFrctMod", "yaw-bearing friction")
 

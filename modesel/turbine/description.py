@@ -38,7 +38,10 @@ class Turbine:
     deck (tower_fa: 2 modes, tower_ss: 2, blade_flap: 2, blade_edge: 1).
     `dofs`: ElastoDyn DOF flags by name (TwFADOF1, GenDOF, ...).
     `initial`: ElastoDyn initial conditions in SI (TTDspFA [m], RotSpeed
-    [rad/s], Azimuth [rad], BlPitch [rad] per blade, ...).
+    [rad/s], Azimuth [rad]: blade 1's, 0 when it points up, BlPitch [rad]
+    per blade, ...).
+    `azimuth_b1_up` [rad]: ElastoDyn's AzimB1Up, the azimuth its input and
+    output Azimuth (LSSTipPxa, LSSGagPxa) read when blade 1 points up.
     `source`: path of the main file it came from.
     """
 
@@ -74,6 +77,7 @@ class Turbine:
     platform_ref_z: float = 0.0
     gearbox_ratio: float = 1.0
     gearbox_efficiency: float = 1.0
+    azimuth_b1_up: float = 0.0
     drivetrain_stiffness: float = 0.0
     drivetrain_damping: float = 0.0
     gravity: float = 9.80665

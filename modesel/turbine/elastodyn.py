@@ -207,10 +207,13 @@ def read_elastodyn(path) -> Turbine:
     if "Furling" in ed_deck.found and _flag(ed, "Furling", ed_deck):
         raise ModeselError("unsupported: rotor and tail furling (FurlFile) is not modelled (set Furling to False)",
                            file=str(ed_deck.path), field="Furling")
+    azimuth_b1_up = deg(num("AzimB1Up", "AzimB1Up")) if "AzimB1Up" in ed_deck.found else 0.0
     initial = {
         "OoPDefl": num("OoPDefl", "OoPDefl"), "IPDefl": num("IPDefl", "IPDefl"),
         "BlPitch": tuple(deg(num(f"BlPitch{k}", f"BlPitch({k})")) for k in per_blade),
-        "TeetDefl": deg(num("TeetDefl", "TeetDefl")), "Azimuth": deg(num("Azimuth", "Azimuth")),
+        "TeetDefl": deg(num("TeetDefl", "TeetDefl")),
+        # blade 1's azimuth from up; the deck's Azimuth reads AzimB1Up there (ElastoDyn.f90 Init_ContStates)
+        "Azimuth": deg(num("Azimuth", "Azimuth")) - azimuth_b1_up,
         "RotSpeed": num("RotSpeed", "RotSpeed") * np.pi / 30.0,
         "NacYaw": deg(num("NacYaw", "NacYaw")),
         "TTDspFA": num("TTDspFA", "TTDspFA"), "TTDspSS": num("TTDspSS", "TTDspSS"),
@@ -231,6 +234,7 @@ def read_elastodyn(path) -> Turbine:
         hub_cm=num("HubCM", "HubCM"), hub_mass=num("HubMass", "HubMass"),
         hub_inertia=num("HubIner", "HubIner"), hub_teeter_inertia=hub_teeter_inertia,
         undersling=undersling, delta3=delta3, generator_inertia=num("GenIner", "GenIner"),
+        azimuth_b1_up=azimuth_b1_up,
         nacelle_mass=num("NacMass", "NacMass"), nacelle_yaw_inertia=num("NacYIner", "NacYIner"),
         yaw_bearing_mass=num("YawBrMass", "YawBrMass"),
         tip_mass=tuple(num(f"TipMass({k})", f"TipMass({k})") for k in per_blade),
