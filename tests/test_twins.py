@@ -73,14 +73,16 @@ def wind_profile(rng):
                              rng.uniform(-1.0, 1.0, 3), rng.uniform(-0.2, 0.2, 3), rng.uniform(-0.1, 0.4, 3),
                              rng.uniform(-0.2, 0.2, 3), rng.uniform(-2.0, 2.0, 3), rng.uniform(-0.1, 0.1, 3)])
     assert table.shape[1] == len(COLUMNS)
-    wind = Wind(table=table, reference_height=rng.uniform(20.0, 150.0), reference_length=rng.uniform(50.0, 150.0))
+    wind = Wind(table=table, reference_height=rng.uniform(20.0, 150.0), reference_length=rng.uniform(50.0, 150.0),
+                upflow=rng.uniform(-0.15, 0.15))
     out = []
     for t in (0.0, 3.3, 20.0):
         p = wind.params(t)
         compiled = np.array([wind_velocity(p, xk, yk, zk) for xk, yk, zk in zip(x, y, z)])
         out.append((f"V(t={t})", wind.vector(z, t, x, y), compiled))
     for t in (-1.0, 0.0, 2.7, 5.0, 9.9, 12.0, 30.0):
-        p = np.empty(N_PARAMS)
+        p = np.zeros(N_PARAMS)
+        p[N_PARAMS - 2:] = np.cos(wind.upflow), np.sin(wind.upflow)        # set by the packing, left by wind_params
         wind_params(wind.table, wind.reference_height, wind.reference_length, t, p)
         out.append((f"params(t={t})", wind.params(t), p))
     return out

@@ -21,6 +21,15 @@ InflowWind's (`UniformField_GetVel` is called for z > 0 only): z <= GROUND,
 1 nm, so that a point placed on the ground (AeroDyn's tower station at
 TwrElev 0), which the kinematics put at 2e-15 m, is on it.
 
+InflowWind's upflow VFlowAng theta (`upflow`, with PropagationDir 0) tilts
+the whole field about the hub point r = (0, 0, RefHt) (InflowWind_Subs.f90
+InflowWind_SetParameters, IfW_FlowField.f90 FlowField_GetVelAcc): a point
+is taken into the wind frame, p' = R^T (p - r) + r with R the rotation by
+theta about y, so x' = cos(theta) x + sin(theta) (z - RefHt) and z' = RefHt
+- sin(theta) x + cos(theta) (z - RefHt), the velocity v' above is evaluated
+there (zero where z' <= GROUND) and turned back, v = R v' =
+(cos(theta) u' - sin(theta) w', v', sin(theta) u' + cos(theta) w').
+
 A full field (InflowWind WindType 3, a TurbSim file: `aero.full_field`)
 replaces the table: `params(t)` is then the field packed after the
 uniform parameters, with its time slot set to t, and `wind_velocity` reads
@@ -44,8 +53,9 @@ GROUND = 1e-9
 
 #: uniform wind table columns (InflowWind's order; angles in rad here)
 COLUMNS = ("Time", "VelH", "AngleH", "VelV", "ShrH", "ShrV", "LinShrV", "VelGust", "AngleV")
-#: layout of `Wind.params(t)`
-N_PARAMS = 12
+#: layout of `Wind.params(t)`: the table's row (10: VelH, cos and sin AngleH, VelV, ShrH,
+#: ShrV, LinShrV, VelGust, cos and sin AngleV), RefHt, RefLength, cos and sin of the upflow
+N_PARAMS = 14
 #: params[GRID_SLOT] > 0: a full field packed from that index (module doc); the
 #: slot between (N_PARAMS) is the compiled loads' channel flag (`effects.packing`)
 GRID_SLOT = N_PARAMS + 1
@@ -64,12 +74,17 @@ class Wind:
     reference_length : RefLength [m] of the linear shears.
     full_field : an `aero.full_field.FullField` (TurbSim); replaces the
         uniform wind (speed etc. then describe its hub-height mean).
+    upflow : InflowWind's VFlowAng [rad], the field tilted about the hub
+        point (module doc; uniform wind only).
     """
 
     def __init__(self, speed: float = 0.0, shear_exponent: float = 0.0,
                  reference_height: float = 90.0, time_series=None, direction: float = 0.0,
-                 table=None, reference_length: float = 1.0, full_field=None):
+                 table=None, reference_length: float = 1.0, full_field=None, upflow: float = 0.0):
         self.full_field = full_field
+        if not np.isfinite(upflow) or (upflow != 0.0 and full_field is not None):
+            raise ModeselError("the upflow angle must be finite, and tilts a uniform wind only", field="upflow")
+        self.upflow = float(upflow)
         if full_field is not None:
             speed, table, time_series = full_field.mean_speed, None, None
         if reference_height <= 0:
@@ -122,7 +137,7 @@ class Wind:
     def _params(self, row) -> np.ndarray:
         _, vh, ah, vv, sh, sv, lsv, gust, av = row
         return np.array([vh, np.cos(ah), np.sin(ah), vv, sh, sv, lsv, gust, np.cos(av), np.sin(av),
-                         self.reference_height, self.reference_length])
+                         self.reference_height, self.reference_length, np.cos(self.upflow), np.sin(self.upflow)])
 
     def row(self, t: float) -> np.ndarray:
         """The table row at time t (linear interpolation, ends held)."""
@@ -171,11 +186,16 @@ class Wind:
         if self.full_field is not None:
             out = self.full_field.velocity(np.stack([x, y, z], axis=-1), float(t))
             return np.where((z > GROUND)[..., None], out, 0.0)
-        vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = self.params(float(t))
+        vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr, cu, su = self.params(float(t))
+        if su != 0.0:           # the tilted field: the point in its frame (module doc)
+            x, z = cu * x + su * (z - zr), zr - su * x + cu * (z - zr)
         above = z > GROUND
         v1 = horizontal_speed(z, y * ch + x * sh, vh, shr_h, shr_v, lin_v, gust, zr, lr)
         v1r = cv * v1 - sv * vv
         out = np.stack([v1r * ch, -v1r * sh, sv * v1 + cv * vv], axis=-1)
+        if su != 0.0:
+            out = np.stack([cu * out[..., 0] - su * out[..., 2], out[..., 1], su * out[..., 0] + cu * out[..., 2]],
+                           axis=-1)
         return np.where(above[..., None], out, 0.0)
 
 
@@ -192,11 +212,11 @@ def horizontal_speed(z, lateral, vh, shr_h, shr_v, lin_v, gust, zr, lr):
 def wind_velocity(p, x, y, z):
     """(u, v, w) [m/s] at (x, y, z) for parameters p = Wind.params(t) (module doc;
     a full field where p[GRID_SLOT] > 0)."""
-    if z <= GROUND:
-        return 0.0, 0.0, 0.0
     if p.shape[0] > GRID_SLOT and p[GRID_SLOT] > 0.0:
+        if z <= GROUND:
+            return 0.0, 0.0, 0.0
         return grid_velocity(p, int(p[GRID_SLOT]), x, y, z)
-    return uniform_velocity(p, x, y, z)
+    return uniform_velocity(p, x, y, z)         # the ground: in the tilted field's frame
 
 
 @njit(cache=True)
@@ -212,13 +232,18 @@ def wind_at(p, x, y, z, field):
 @njit(cache=True)
 def uniform_velocity(p, x, y, z):
     """(u, v, w) [m/s] of the uniform wind (module doc) at (x, y, z)."""
-    if z <= GROUND:
-        return 0.0, 0.0, 0.0
     vh, ch, sh_, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr = (p[0], p[1], p[2], p[3], p[4], p[5],
                                                                   p[6], p[7], p[8], p[9], p[10], p[11])
+    cu, su = p[12], p[13]
+    if su != 0.0:               # the tilted field: the point in its frame (module doc)
+        x, z = cu * x + su * (z - zr), zr - su * x + cu * (z - zr)
+    if z <= GROUND:
+        return 0.0, 0.0, 0.0
     v1 = vh * ((z / zr) ** shr_v + (shr_h * (y * ch + x * sh_) + lin_v * (z - zr)) / lr) + gust
     v1r = cv * v1 - sv * vv
     w = sv * v1 + cv * vv
+    if su != 0.0:
+        return cu * v1r * ch - su * w, -v1r * sh_, su * v1r * ch + cu * w
     return v1r * ch, -v1r * sh_, w
 
 
@@ -226,7 +251,8 @@ def uniform_velocity(p, x, y, z):
 def wind_params(table, reference_height, reference_length, t, out):
     """Compiled twin of `Wind.params`: the parameters of `wind_velocity` at
     time t [s] into out (N_PARAMS,) from the (N, 9) table (linear
-    interpolation in time as np.interp, ends held)."""
+    interpolation in time as np.interp, ends held); out[12:14], the upflow's
+    cosine and sine, are not time-dependent and stay as set."""
     n = table.shape[0]
     row = 0
     frac = -1.0

@@ -6,7 +6,8 @@ exponent PLExp), WindType 2 (uniform wind file, linear interpolation in
 time: VelInterpCubic = False), with PropagationDir (a rotation of the flow
 about the vertical; with a uniform file only where its linear horizontal
 shear is zero), and WindType 3 (a TurbSim binary full field, FileName_BTS,
-`aero.full_field`; PropagationDir 0), with no upflow VFlowAng. Anything
+`aero.full_field`; PropagationDir 0), with InflowWind's upflow VFlowAng on a
+uniform wind whose PropagationDir is 0 (`aero.wind`, `upflow_deg`). Anything
 else (Bladed or HAWC full fields, cubic interpolation, lidar) is a
 `ModeselError` naming the file and the input.
 
@@ -35,17 +36,19 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
     if wind_type not in (1, 2, 3):
         raise f.unsupported("WindType", "only 1 = steady, 2 = uniform wind file and 3 = TurbSim full field "
                                         "are modelled")
-    if f.number("VFlowAng") != 0.0:
-        raise f.unsupported("VFlowAng", "upflow angle")
     if "SensorType" in f and f.integer("SensorType") != 0:
         raise f.unsupported("SensorType", "lidar")
     direction = -f.number("PropagationDir")     # InflowWind: positive rotates the flow towards -y
+    upflow = f.number("VFlowAng")               # [deg], the field tilted about the hub point (`aero.wind`)
+    if upflow != 0.0 and (direction != 0.0 or wind_type == 3):
+        raise f.unsupported("VFlowAng", "an upflow angle with PropagationDir or a full field")
+    extra = {"upflow_deg": upflow} if upflow != 0.0 else {}
     if wind_type == 1:
         ref = f.number("RefHt")
         if ref <= 0:
             raise f.error(f"must be > 0, got {ref:g}", "RefHt")
         return {"speed": f.number("HWindSpeed"), "shear": f.number("PLexp", "PLExp"),
-                "reference_height": ref, "direction_deg": direction}
+                "reference_height": ref, "direction_deg": direction, **extra}
     if f.flag("VelInterpCubic", default=False):
         raise f.unsupported("VelInterpCubic", "cubic interpolation in time")
     if wind_type == 3:
@@ -66,7 +69,7 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
         raise f.unsupported("PropagationDir", "a rotated field with linear horizontal shear")
     if direction != 0.0:
         raise f.unsupported("PropagationDir", "give the direction in the uniform wind file's column instead")
-    return {"file": str(wind_file), "reference_height": ref, "reference_length": length}
+    return {"file": str(wind_file), "reference_height": ref, "reference_length": length, **extra}
 
 
 def read_uniform_wind(path) -> np.ndarray:

@@ -42,7 +42,8 @@ class InputFile:
                 break
             for j in range(1, len(tokens)):
                 tok = tokens[j]
-                if tok in ("-", "--") or tok.startswith(("-", "!")):
+                # a description starts at "-" or "!" (a negative number in a list, "0, -10, 0", does not)
+                if tok in ("-", "--") or tok.startswith("!") or (tok[0] == "-" and not re.match(r"^-[.0-9]", tok)):
                     break
                 if _LABEL.match(tok) and tok.lower() not in _WORDS:
                     self.values.setdefault(tok, (i, " ".join(tokens[:j])))

@@ -42,6 +42,8 @@ class WindField(Effect):
         "file": Option("path", None, "InflowWind uniform wind file"),
         "reference_length": Option("number", None, "RefLength of the linear shears [m]", positive=True),
         "full_field": Option("path", None, "TurbSim full-field file (.bts)"),
+        "upflow_deg": Option("number", None, "InflowWind's VFlowAng: the uniform field tilted about the hub "
+                                              "point [deg]", scale=np.pi / 180.0),
     }
 
     def __init__(self, scene, options):
@@ -49,7 +51,7 @@ class WindField(Effect):
         o = options
         self.full_field = None
         if o["full_field"] is not None:
-            for key in ("speed", "shear", "direction_deg", "time_series", "file", "reference_length"):
+            for key in ("speed", "shear", "direction_deg", "time_series", "file", "reference_length", "upflow_deg"):
                 if o[key] is not None:
                     raise self.error("given by the full field: leave it out with full_field", key)
             from modesel.aero.full_field import read_turbsim
@@ -70,16 +72,20 @@ class WindField(Effect):
 
     def setup(self, built):
         o = self.options
+        if o["upflow_deg"] and o["direction_deg"]:
+            raise self.error("an upflow with a direction is not modelled (InflowWind turns the field by both "
+                             "about the hub point)", "upflow_deg")
         if self.full_field is not None:
             self.field = Wind(reference_height=self.full_field.hub_height, full_field=self.full_field)
             return
         z_ref = o["reference_height"] if o["reference_height"] is not None else built.hub_height()
         if self.table is not None:
             self.field = Wind(reference_height=z_ref, table=self.table,
-                              reference_length=o["reference_length"] or 1.0)
+                              reference_length=o["reference_length"] or 1.0, upflow=o["upflow_deg"] or 0.0)
             return
         series = None if o["time_series"] is None else o["time_series"].T
-        self.field = Wind(o["speed"] or 0.0, o["shear"] or 0.0, z_ref, series, o["direction_deg"] or 0.0)
+        self.field = Wind(o["speed"] or 0.0, o["shear"] or 0.0, z_ref, series, o["direction_deg"] or 0.0,
+                          upflow=o["upflow_deg"] or 0.0)
 
     def check_covers(self, built, tmax):
         """With a full field: a one-line ModeselError where the rotor at rest
