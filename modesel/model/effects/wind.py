@@ -21,6 +21,11 @@ grid, `aero.full_field`):
 
     full_field = "turb.bts"      # relative to the scene
 
+A uniform wind (not a full field; without direction_deg) can be tilted as
+InflowWind's VFlowAng tilts it, about the hub point (`aero.wind`):
+
+    upflow_deg = 8.0             # deg, the flow turned upwards
+
 The wind itself applies no load.
 """
 from __future__ import annotations
