@@ -52,6 +52,7 @@ tolerances:
   free and off, and a coast-down whose shaft torque changes sign;
 - azimuth_b1_up: ElastoDyn's AzimB1Up (refused before);
 - upflow_shear: InflowWind's upflow VFlowAng with shear (refused before);
+- turbulent_direction: a TurbSim field turned by PropagationDir (refused before);
 - strain_gauges: ElastoDyn's blade and tower strain-gauge loads;
 - full_tower_drag, partial_tower_drag: tower drag with the .fst's air
   density, over AeroDyn's whole tower table or its upper part;
@@ -490,6 +491,25 @@ def test_upflow_matches_openfast():
     assert a.RotSpeed.mean() / b.RotSpeed.mean() - 1 > 0.01 and a.GenPwr.mean() / b.GenPwr.mean() - 1 > 0.03
 
 
+def test_turned_full_field_matches_openfast():
+    """InflowWind's PropagationDir on a TurbSim field (refused before):
+    turbulent_08's field turned 10 deg about the vertical through the hub
+    (`aero.wind`), 40 s. InflowWind's hub-point velocities within 1e-5 of
+    their range, the issue-10 means, std within 10 % and NRMSE <= 2 % (at
+    most 0.29 %, TTDspSS); OpenFAST's hub wind is turned towards -y
+    (Wind1VelY's mean below -0.1 times Wind1VelX's; sin 10 deg = 0.17)."""
+    out, ref = run("turbulent_direction")
+    for c in ("Wind1VelX", "Wind1VelY", "Wind1VelZ"):
+        assert nrmse(out, ref, c) < 1e-5, c
+    assert ref.Wind1VelY.mean() < -0.1 * ref.Wind1VelX.mean()           # the flow turned towards -y
+    hold_to_tolerances("turbulent_direction", out, ref, 20.0,
+                       {c: MEAN_TOLERANCES[c] for c in ("RotSpeed", "GenPwr", "RtAeroFxh", "TTDspFA", "OoPDefl1",
+                                                        "IPDefl1")},
+                       ("RotSpeed", "RtAeroFxh", "OoPDefl1", "RootMyc1", "TTDspSS"),
+                       ("RotSpeed", "GenPwr", "RtAeroFxh", "RtSkew", "OoPDefl1", "OoPDefl2", "TTDspFA", "TTDspSS",
+                        "RootMyc1", "TwrBsMxt"))
+
+
 def gauge_errors(prefix, count, loose, loose_tolerance, quantities=("FL", "ML")):
     """Means of the last 20 s and NRMSE of case strain_gauges' channels
     starting with `prefix` (`count` of them) against OpenFAST's; the axes in
@@ -612,7 +632,10 @@ RERUN = {"rotating_release": (("tests/data/openfast_turbine/common",), RELEASE_C
          "azimuth_b1_up": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
                            ("Azimuth", "Q_GeAz", "RootMxc1", "LSSTipMya")),
          "upflow_shear": (("tests/data/openfast_turbine/common", "studies/data/openfast/common"),
-                          ("RotSpeed", "Wind2VelX", "Wind2VelZ", "OoPDefl1"))}
+                          ("RotSpeed", "Wind2VelX", "Wind2VelZ", "OoPDefl1")),
+         "turbulent_direction": (("tests/data/openfast_turbine/common", "studies/data/openfast/common",
+                                  "tests/data/openfast_more/turbulent_08"),
+                                 ("RotSpeed", "OoPDefl1", "Wind1VelX", "Wind1VelY"))}
 
 
 @pytest.mark.slow

@@ -105,11 +105,13 @@ class FullField:
                 self.grid_base, self.init_x, 1.0 / self.mean_speed, float(self.periodic)]
         return np.concatenate([np.array(head, float), self.grid.ravel(), self.tower.ravel()])
 
-    def check_covers(self, hub_height: float, radius: float, tmax: float, field: str = "grid"):
+    def check_covers(self, hub_height: float, radius: float, tmax: float, field: str = "grid", turn: float = 0.0):
         """A one-line ModeselError where the rotor disc at rest (centre at
         hub_height [m] on the tower's axis, radius [m]) leaves the grid, or
         where the file's time ends before tmax [s] at the hub (a
-        non-periodic file); InflowWind stops there too."""
+        non-periodic file; with the field turned by `turn` [rad] about the
+        vertical, `aero.wind`, at the disc's most upwind point in the
+        field's frame); InflowWind stops there too."""
         if hub_height + radius > self.top + GRID_TOL * self.dz:
             raise ModeselError(f"the grid's top row is at {self.top:g} m; the rotor reaches "
                                f"{hub_height + radius:g} m", file=self.source, field=field)
@@ -120,7 +122,7 @@ class FullField:
         if radius > self.half_width + GRID_TOL * self.dy:
             raise ModeselError(f"the grid is {2 * self.half_width:g} m wide; the rotor "
                                f"{2 * radius:g} m", file=self.source, field=field)
-        need = tmax + self.init_x / self.mean_speed
+        need = tmax + (self.init_x + radius * abs(np.sin(turn))) / self.mean_speed
         if not self.periodic and need > self.duration:
             raise ModeselError(f"the file covers {self.duration:g} s of frozen turbulence; a run of "
                                f"{tmax:g} s at {self.mean_speed:g} m/s needs {need:g} s at the hub",

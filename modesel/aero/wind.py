@@ -33,7 +33,13 @@ there (zero where z' <= GROUND) and turned back, v = R v' =
 A full field (InflowWind WindType 3, a TurbSim file: `aero.full_field`)
 replaces the table: `params(t)` is then the field packed after the
 uniform parameters, with its time slot set to t, and `wind_velocity` reads
-it (`GRID_SLOT` holds where it starts; 0 for uniform wind).
+it (`GRID_SLOT` holds where it starts; 0 for uniform wind). InflowWind's
+PropagationDir turns a full field about the vertical through the hub
+point: with d = `direction` (= -PropagationDir, from x towards y) a point
+is read at p' = R_z(-d) p, x' = cos(d) x + sin(d) y, y' = -sin(d) x +
+cos(d) y (its frozen-turbulence time from x'), and the velocity turned back,
+v = R_z(d) v'. params[12:14] hold the cosine and sine of the field's turn:
+the upflow for a uniform wind, the direction for a full field.
 
 The short form of a scene's [effects.wind] (`speed`, `shear`,
 `direction` from x towards +y, `time_series` of (t, speed)) is the table
@@ -54,7 +60,8 @@ GROUND = 1e-9
 #: uniform wind table columns (InflowWind's order; angles in rad here)
 COLUMNS = ("Time", "VelH", "AngleH", "VelV", "ShrH", "ShrV", "LinShrV", "VelGust", "AngleV")
 #: layout of `Wind.params(t)`: the table's row (10: VelH, cos and sin AngleH, VelV, ShrH,
-#: ShrV, LinShrV, VelGust, cos and sin AngleV), RefHt, RefLength, cos and sin of the upflow
+#: ShrV, LinShrV, VelGust, cos and sin AngleV), RefHt, RefLength, cos and sin of the field's
+#: turn (the upflow; for a full field its direction: module doc)
 N_PARAMS = 14
 #: params[GRID_SLOT] > 0: a full field packed from that index (module doc); the
 #: slot between (N_PARAMS) is the compiled loads' channel flag (`effects.packing`)
@@ -133,6 +140,13 @@ class Wind:
             packed = full_field.packed()
             self._field = np.concatenate([np.zeros(GRID_SLOT + 1), packed])
             self._field[GRID_SLOT] = GRID_SLOT + 1
+            self._field[N_PARAMS - 2:N_PARAMS] = self.turn()
+
+    def turn(self) -> tuple:
+        """(cos, sin) of the field's turn, params[12:14] (module doc): the
+        upflow of a uniform wind, the direction of a full field."""
+        angle = self.direction if self.full_field is not None else self.upflow
+        return float(np.cos(angle)), float(np.sin(angle))
 
     def _params(self, row) -> np.ndarray:
         _, vh, ah, vv, sh, sv, lsv, gust, av = row
@@ -184,7 +198,10 @@ class Wind:
         z = np.asarray(z, float)
         x, y = np.broadcast_to(x, z.shape).astype(float), np.broadcast_to(y, z.shape).astype(float)
         if self.full_field is not None:
-            out = self.full_field.velocity(np.stack([x, y, z], axis=-1), float(t))
+            c, s = self.turn()
+            out = self.full_field.velocity(np.stack([c * x + s * y, -s * x + c * y, z], axis=-1), float(t))
+            out = np.stack([c * out[..., 0] - s * out[..., 1], s * out[..., 0] + c * out[..., 1], out[..., 2]],
+                           axis=-1)
             return np.where((z > GROUND)[..., None], out, 0.0)
         vh, ch, sh, vv, shr_h, shr_v, lin_v, gust, cv, sv, zr, lr, cu, su = self.params(float(t))
         if su != 0.0:           # the tilted field: the point in its frame (module doc)
@@ -215,7 +232,11 @@ def wind_velocity(p, x, y, z):
     if p.shape[0] > GRID_SLOT and p[GRID_SLOT] > 0.0:
         if z <= GROUND:
             return 0.0, 0.0, 0.0
-        return grid_velocity(p, int(p[GRID_SLOT]), x, y, z)
+        c, s = p[N_PARAMS - 2], p[N_PARAMS - 1]
+        if s == 0.0:
+            return grid_velocity(p, int(p[GRID_SLOT]), x, y, z)
+        u, v, w = grid_velocity(p, int(p[GRID_SLOT]), c * x + s * y, -s * x + c * y, z)   # the turned field
+        return c * u - s * v, s * u + c * v, w
     return uniform_velocity(p, x, y, z)         # the ground: in the tilted field's frame
 
 

@@ -6,7 +6,8 @@ exponent PLExp), WindType 2 (uniform wind file, linear interpolation in
 time: VelInterpCubic = False), with PropagationDir (a rotation of the flow
 about the vertical; with a uniform file only where its linear horizontal
 shear is zero), and WindType 3 (a TurbSim binary full field, FileName_BTS,
-`aero.full_field`; PropagationDir 0), with InflowWind's upflow VFlowAng on a
+`aero.full_field`; PropagationDir turns it about the vertical through the hub,
+`aero.wind`), with InflowWind's upflow VFlowAng on a
 uniform wind whose PropagationDir is 0 (`aero.wind`, `upflow_deg`). Anything
 else (Bladed or HAWC full fields, cubic interpolation, lidar) is a
 `ModeselError` naming the file and the input.
@@ -52,12 +53,10 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
     if f.flag("VelInterpCubic", default=False):
         raise f.unsupported("VelInterpCubic", "cubic interpolation in time")
     if wind_type == 3:
-        if direction != 0.0:
-            raise f.unsupported("PropagationDir", "a rotated full field")
         bts = f.referenced("FileName_BTS")
         if bts is None:
             raise f.error("WindType = 3 needs a TurbSim binary file", "FileName_BTS")
-        return {"full_field": str(bts)}
+        return {"full_field": str(bts), **({"direction_deg": direction} if direction != 0.0 else {})}
     wind_file = f.referenced("FileName_Uni", )
     if wind_file is None:
         raise f.error("WindType = 2 needs a uniform wind file", "FileName_Uni")

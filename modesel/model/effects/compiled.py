@@ -71,7 +71,7 @@ def pack_loads(built, packed):
             packer.set_state(GRID_SLOT, [grid])
         packer.record(WIND, [packer.add(w.table), len(w.table), packer.add([w.reference_height,
                                                                            w.reference_length])])
-        packer.set_state(N_PARAMS - 2, [np.cos(w.upflow), np.sin(w.upflow)])     # `wind_params` leaves them
+        packer.set_state(N_PARAMS - 2, list(w.turn()))     # the field's turn (`aero.wind`); `wind_params` leaves it
     for e in acting:
         e.compile_loads(built, packer, packed)
     loads = loads_function(packer.tower_influence, grid > 0)

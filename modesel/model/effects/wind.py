@@ -20,6 +20,7 @@ or a TurbSim full field (InflowWind WindType 3: frozen turbulence on a
 grid, `aero.full_field`):
 
     full_field = "turb.bts"      # relative to the scene
+    direction_deg = 10.0         # optional: the field turned about the vertical through the hub
 
 A uniform wind (not a full field; without direction_deg) can be tilted as
 InflowWind's VFlowAng tilts it, about the hub point (`aero.wind`):
@@ -56,7 +57,7 @@ class WindField(Effect):
         o = options
         self.full_field = None
         if o["full_field"] is not None:
-            for key in ("speed", "shear", "direction_deg", "time_series", "file", "reference_length", "upflow_deg"):
+            for key in ("speed", "shear", "time_series", "file", "reference_length", "upflow_deg"):
                 if o[key] is not None:
                     raise self.error("given by the full field: leave it out with full_field", key)
             from modesel.aero.full_field import read_turbsim
@@ -81,7 +82,8 @@ class WindField(Effect):
             raise self.error("an upflow with a direction is not modelled (InflowWind turns the field by both "
                              "about the hub point)", "upflow_deg")
         if self.full_field is not None:
-            self.field = Wind(reference_height=self.full_field.hub_height, full_field=self.full_field)
+            self.field = Wind(reference_height=self.full_field.hub_height, full_field=self.full_field,
+                              direction=o["direction_deg"] or 0.0)
             return
         z_ref = o["reference_height"] if o["reference_height"] is not None else built.hub_height()
         if self.table is not None:
@@ -100,7 +102,7 @@ class WindField(Effect):
             return
         aero = built.effect("aero")
         radius = aero.bem.solver.tip_radius if aero is not None and hasattr(aero, "bem") else 0.0
-        self.full_field.check_covers(built.hub_height(), radius, tmax)
+        self.full_field.check_covers(built.hub_height(), radius, tmax, turn=self.options["direction_deg"] or 0.0)
 
 
 EFFECT = WindField
