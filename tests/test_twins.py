@@ -104,20 +104,20 @@ def random_full_field(rng, periodic=False):
 def full_field(rng):
     """InflowWind's TurbSim full field: aero.full_field.FullField.velocity (numpy) /
     grid_velocity through wind_velocity (numba), in the grid, on the tower points, from
-    them to the ground and across a periodic file's wrap; the tower drag in it:
-    aero.TowerDrag.load of Wind.vector (numpy) / drag_forces (numba)."""
+    them to the ground and across a periodic file's wrap, turned about the vertical (PropagationDir);
+    the tower drag in it: aero.TowerDrag.load of Wind.vector (numpy) / drag_forces (numba)."""
     out = []
-    for periodic in (False, True):
+    for periodic, turn in ((False, 0.0), (True, 0.0), (False, 0.2)):
         field = random_full_field(rng, periodic)
-        wind = Wind(full_field=field)
+        wind = Wind(full_field=field, direction=turn)
         n = 300
         x = rng.uniform(-10.0, 10.0, n)
-        y = rng.uniform(-field.half_width, field.half_width, n)
+        y = rng.uniform(-field.half_width, field.half_width, n) * np.cos(turn) * 0.9
         z = np.concatenate([rng.uniform(field.grid_base, field.top, n - 60), rng.uniform(-5.0, field.grid_base, 60)])
-        for t in (0.0, 2.1, 9.35) + ((12.5, 17.9) if periodic else ()):
+        for t in (0.0, 2.1) + ((9.35,) if not turn else ()) + ((12.5, 17.9) if periodic else ()):
             p = wind.params(t)
             compiled = np.array([wind_velocity(p, xk, yk, zk) for xk, yk, zk in zip(x, y, z)])
-            out.append((f"V(t={t}, periodic={periodic})", wind.vector(z, t, x, y), compiled))
+            out.append((f"V(t={t}, periodic={periodic}, turn={turn})", wind.vector(z, t, x, y), compiled))
     drag = read_aerodyn(AD_FILE).tower
     m, rho = 40, 1.225
     pos = np.column_stack([rng.normal(0.0, 0.5, (m, 2)), rng.uniform(-2.0, 95.0, m)])
