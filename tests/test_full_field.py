@@ -170,10 +170,12 @@ def edited_case(tmp_path, label, value):
     return tmp_path / "case.fst"
 
 
-@pytest.mark.parametrize("label, value", [("WindType", "4"), ("PropagationDir", "10.0")])
+@pytest.mark.parametrize("label, value", [("WindType", "4"), ("VFlowAng", "8.0")])
 def test_unsupported_inflowwind_options_exit_2(tmp_path, label, value):
-    """WindType 4 (Bladed full field) and a rotated full field: one line naming
-    the InflowWind deck and the input, exit code 2."""
+    """WindType 4 (Bladed full field) and a full field tilted by an upflow
+    (a full field turned by PropagationDir is modelled since session 28:
+    tests/test_openfast_more.py -k turned): one line naming the InflowWind
+    deck and the input, exit code 2."""
     proc = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(edited_case(tmp_path, label, value)),
                            "--tmax", "1", "--out", str(tmp_path / "out.csv")], capture_output=True, text=True)
     assert proc.returncode == 2, proc.stderr
