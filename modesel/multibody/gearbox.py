@@ -34,33 +34,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from modesel.multibody.rotations import cross, skew
-
 
 def factor(sigma: float, efficiency: float) -> float:
     """k of the module doc: 1/eta for a shaft torque sigma >= 0, else eta."""
     return 1.0 / efficiency if sigma >= 0.0 else efficiency
 
 
-def rigid_row(mass, cm, inertia, st, g: int, gravity) -> tuple:
-    """(r (n_all,), b) of a rigid body with `mass` [kg], centre of mass `cm`
-    [m] and `inertia` about it [kg m^2] (body frame) in the equation of
-    coordinate g: its row of M and its part of F at qdd = 0 (eq. 6-7), from
-    its kinematics `st` (`KaneEquations.kinematics`)."""
-    R = st.R
-    p = R @ np.asarray(cm, float)
-    Ig = R @ np.asarray(inertia, float) @ R.T
-    JvG = st.Jv - skew(p) @ st.Jw
-    aG = st.a_bias + cross(st.alpha_bias, p) + cross(st.w, cross(st.w, p))
-    r = mass * JvG[:, g] @ JvG + st.Jw[:, g] @ Ig @ st.Jw
-    b = JvG[:, g] @ (mass * (np.asarray(gravity, float) - aG)) - st.Jw[:, g] @ (Ig @ st.alpha_bias
-                                                                               + cross(st.w, Ig @ st.w))
-    return r, float(b)
-
-
 def with_losses(M, F, free_idx, presc_idx, qdd_p, g, r, bias, given, efficiency):
     """M and F (all coordinates, without losses) with the losses on row g
-    (module doc): r, bias the gearbox body's row and bias on g, `given` the
+    (module doc): r, bias the gearbox body's row and bias on g (its
+    `kane.rigid_terms` there), `given` the
     generalised force given on g [N m], qdd_p (all coordinates) the
     prescribed accelerations. New arrays."""
     qdd = np.zeros(len(F))

@@ -16,7 +16,7 @@ import numpy as np
 from numba import cfunc, njit
 
 from modesel.multibody.kernel import (COL0, INERTIA, KIND, LOSS, LOSS_ETA, LOSS_K, LOSS_SIG, NCOL, RIGID, SOLVE,
-                                      SOLVE_HELD, cholesky_solve, free_rows, lu_solve)
+                                      SOLVE_HELD, cholesky_solve, cross3, free_rows, lu_solve, rotate_tensor)
 
 
 @njit(cache=True)
@@ -33,6 +33,15 @@ def _solve_free(free, presc, qddp, M, F, Mf, Ff, acc, symmetric):
     for a in range(free.shape[0]):
         acc[a] = Ff[a]
     return lu_solve(Mf, acc)
+
+
+@njit(cache=True)
+def _with_factor(factor, g, row, Fg, r, bias, given, M, F):
+    """Row g of M and F with the generator's part taken `factor` times: the
+    row without losses `row`, Fg plus (factor - 1) times r and bias + given."""
+    for j in range(M.shape[0]):
+        M[g, j] = row[j] + (factor - 1.0) * r[j]
+    F[g] = Fg + (factor - 1.0) * (bias + given)
 
 
 def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, Ig, M, F, Mf, Ff, out, off):
@@ -57,13 +66,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
     r = np.zeros(n)
     bias = 0.0
     if bi[b, KIND] == RIGID:
-        for i in range(3):
-            for j in range(3):
-                s = 0.0
-                for k in range(3):
-                    for m in range(3):
-                        s += R[i, k] * bf[b, INERTIA + 3 * k + m] * R[j, m]
-                Ig[i, j] = s
+        rotate_tensor(R, bf[b, INERTIA:INERTIA + 9], Ig)
         w, al = vec[2], vec[4]
         u = np.zeros(3)
         Iw = np.zeros(3)
@@ -71,7 +74,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
             for k in range(3):
                 u[i] += Ig[i, k] * Jw[k, g]
                 Iw[i] += Ig[i, k] * w[k]
-        gyr = (w[1] * Iw[2] - w[2] * Iw[1], w[2] * Iw[0] - w[0] * Iw[2], w[0] * Iw[1] - w[1] * Iw[0])
+        gyr = cross3(w[0], w[1], w[2], Iw[0], Iw[1], Iw[2])
         for i in range(3):
             bias -= u[i] * al[i] + Jw[i, g] * gyr[i]
         c0, nc = bi[b, COL0], bi[b, NCOL]
@@ -83,10 +86,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
     Fg = F[g]
     x = np.empty(nf)
     if solve != SOLVE:
-        factor = bf[b, LOSS_K]
-        for j in range(n):
-            M[g, j] = row[j] + (factor - 1.0) * r[j]
-        F[g] = Fg + (factor - 1.0) * (bias + given)
+        _with_factor(bf[b, LOSS_K], g, row, Fg, r, bias, given, M, F)
         if solve == SOLVE_HELD:
             if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
                 return 0
@@ -113,9 +113,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
         if attempt == 2:            # neither sign reproduces itself: keep the last
             break
         factor = wanted
-        for j in range(n):
-            M[g, j] = row[j] + (factor - 1.0) * r[j]
-        F[g] = Fg + (factor - 1.0) * (bias + given)
+        _with_factor(factor, g, row, Fg, r, bias, given, M, F)
         if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
             return 0
     bf[b, LOSS_K] = factor

@@ -116,6 +116,19 @@ class BodyArrays(NamedTuple):
     flexible: FlexibleArrays | None
 
 
+def rigid_terms(body, st: BodyState, gravity) -> tuple:
+    """A rigid body's terms of M (n_all x n_all) and F (n_all) (first paper
+    eq. 6-7, numpy reference) from its kinematics `st`: mass, centre of mass
+    and inertia about it of `body` (body frame), `gravity` (3,) [m/s^2]."""
+    p = st.R @ np.asarray(body.cm, float)
+    Ig = st.R @ np.asarray(body.inertia, float) @ st.R.T
+    JvG = st.Jv - skew(p) @ st.Jw
+    aG = st.a_bias + cross(st.alpha_bias, p) + cross(st.w, cross(st.w, p))
+    M = body.mass * JvG.T @ JvG + st.Jw.T @ Ig @ st.Jw
+    F = JvG.T @ (body.mass * (gravity - aG)) - st.Jw.T @ (Ig @ st.alpha_bias + cross(st.w, Ig @ st.w))
+    return M, F
+
+
 class KaneEquations:
     """Produces M(q) and F(q, qd, t) of a `System` (first paper eq. 22).
 
@@ -302,12 +315,9 @@ class KaneEquations:
             if f is None:
                 if b.mass == 0.0 and not np.any(b.inertia):
                     continue
-                p = st.R @ np.asarray(b.cm, float)
-                Ig = st.R @ np.asarray(b.inertia, float) @ st.R.T
-                JvG = st.Jv - skew(p) @ st.Jw
-                aG = st.a_bias + cross(st.alpha_bias, p) + cross(st.w, cross(st.w, p))
-                M += b.mass * JvG.T @ JvG + st.Jw.T @ Ig @ st.Jw                       # eq. 6-7
-                F += JvG.T @ (b.mass * (g - aG)) - st.Jw.T @ (Ig @ st.alpha_bias + cross(st.w, Ig @ st.w))
+                Mb, Fb = rigid_terms(b, st, g)
+                M += Mb
+                F += Fb
                 continue
             self._flexible(b, f, st, q, qd, M, F, g, None if node_forces is None else node_forces.get(b.name))
         return M, F
@@ -384,20 +394,22 @@ class KaneEquations:
     def evaluate_reference(self, q, qd, t=0.0, node_forces=None, generalized=None):
         """`evaluate` with the numpy reference."""
         q_all, qd_all, qdd_p = self.full_state(q, qd, t)
-        M, F = self.evaluate_full_reference(q_all, qd_all, node_forces, generalized)
+        states = self.kinematics(q_all, qd_all)
+        M, F = self.evaluate_full_reference(q_all, qd_all, node_forces, generalized, states)
         if self.loss is not None:
-            M, F = self._with_losses(M, F, q_all, qd_all, qdd_p, generalized)
+            M, F = self._with_losses(M, F, q_all, qd_all, qdd_p, generalized, states)
         return self._restrict(M, F, qdd_p)
 
-    def _with_losses(self, M, F, q_all, qd_all, qdd_p, generalized):
-        """M and F (all coordinates) with the lossy gearbox's row (numpy reference)."""
-        from modesel.multibody.gearbox import rigid_row, with_losses
+    def _with_losses(self, M, F, q_all, qd_all, qdd_p, generalized, states=None):
+        """M and F (all coordinates) with the lossy gearbox's row (numpy
+        reference): the gearbox body's row and bias on its coordinate are
+        its `rigid_terms` there."""
+        from modesel.multibody.gearbox import with_losses
         k, g, eta = self.loss
-        body = self.bodies[k][0]
-        st = self.kinematics(q_all, qd_all)[k]
-        r, bias = rigid_row(body.mass, body.cm, body.inertia, st, g, self.gravity)
+        states = self.kinematics(q_all, qd_all) if states is None else states
+        Mb, Fb = rigid_terms(self.bodies[k][0], states[k], self.gravity)
         given = 0.0 if generalized is None else float(generalized[g])
-        return with_losses(M, F, self.free_idx, self.presc_idx, qdd_p, g, r, bias, given, eta)
+        return with_losses(M, F, self.free_idx, self.presc_idx, qdd_p, g, Mb[g], float(Fb[g]), given, eta)
 
     def _restrict(self, M, F, qdd_p):
         """Free rows and columns; prescribed accelerations to the right (eq. 21-22)."""

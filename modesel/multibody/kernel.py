@@ -162,7 +162,7 @@ def view4(a, offset, n0, n1, n2, n3):
 
 
 @njit(cache=True)
-def _cross(a0, a1, a2, b0, b1, b2):
+def cross3(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
@@ -245,7 +245,7 @@ def kinematics(q, qd, data, work):
                 th += rot_c[k, col] * q[col]
                 thd += rot_c[k, col] * qd[col]
             u0, u1, u2 = Q[0, ax], Q[1, ax], Q[2, ax]
-            x0, x1, x2 = _cross(wrel[0], wrel[1], wrel[2], u0, u1, u2)
+            x0, x1, x2 = cross3(wrel[0], wrel[1], wrel[2], u0, u1, u2)
             alrel[0] += x0 * thd
             alrel[1] += x1 * thd
             alrel[2] += x2 * thd
@@ -298,11 +298,11 @@ def kinematics(q, qd, data, work):
             for j in range(3):
                 R[b, i, j] = P[i, 0] * Q[0, j] + P[i, 1] * Q[1, j] + P[i, 2] * Q[2, j]
         rp, vp, wp, ap, alp = vec[p, 0], vec[p, 1], vec[p, 2], vec[p, 3], vec[p, 4]
-        x = _cross(wp[0], wp[1], wp[2], rho[0], rho[1], rho[2])
-        wwr = _cross(wp[0], wp[1], wp[2], x[0], x[1], x[2])
-        arho = _cross(alp[0], alp[1], alp[2], rho[0], rho[1], rho[2])
-        wrd = _cross(wp[0], wp[1], wp[2], rhod[0], rhod[1], rhod[2])
-        wPw = _cross(wp[0], wp[1], wp[2], Pw[0], Pw[1], Pw[2])
+        x = cross3(wp[0], wp[1], wp[2], rho[0], rho[1], rho[2])
+        wwr = cross3(wp[0], wp[1], wp[2], x[0], x[1], x[2])
+        arho = cross3(alp[0], alp[1], alp[2], rho[0], rho[1], rho[2])
+        wrd = cross3(wp[0], wp[1], wp[2], rhod[0], rhod[1], rhod[2])
+        wPw = cross3(wp[0], wp[1], wp[2], Pw[0], Pw[1], Pw[2])
         for i in range(3):
             Pal = P[i, 0] * alrel[0] + P[i, 1] * alrel[1] + P[i, 2] * alrel[2]
             vec[b, 0, i] = rp[i] + rho[i]
@@ -312,7 +312,7 @@ def kinematics(q, qd, data, work):
             vec[b, 4, i] = alp[i] + wPw[i] + Pal
         for cc in range(nc):
             col = ipool[c0 + cc]
-            cr = _cross(rho[0], rho[1], rho[2], Jw[p, 0, col], Jw[p, 1, col], Jw[p, 2, col])
+            cr = cross3(rho[0], rho[1], rho[2], Jw[p, 0, col], Jw[p, 1, col], Jw[p, 2, col])
             for i in range(3):
                 Jw[b, i, col] = Jw[p, i, col] + (P[i, 0] * Jwrel[0, col] + P[i, 1] * Jwrel[1, col]
                                                  + P[i, 2] * Jwrel[2, col])
@@ -333,7 +333,7 @@ def kinematics_along(Q, QD, data, work, R_out, vec_out):
 
 # ------------------------------------------------------------- body contributions
 @njit(cache=True)
-def _rotate_tensor(R, body_frame, out):
+def rotate_tensor(R, body_frame, out):
     """out = R T R^T for the 3x3 tensor T stored row by row in `body_frame`
     (9 floats): a body-frame inertia expressed in the ground frame."""
     for i in range(3):
@@ -357,16 +357,16 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     p, fG, Iw, Ial = v_scr[0], v_scr[1], v_scr[2], v_scr[3]
     Ig = work[11][0]
     _mv(R, bf[b, CM:CM + 3], p)
-    _rotate_tensor(R, bf[b, INERTIA:INERTIA + 9], Ig)
-    x = _cross(w[0], w[1], w[2], p[0], p[1], p[2])
-    wwp = _cross(w[0], w[1], w[2], x[0], x[1], x[2])
-    alp = _cross(al[0], al[1], al[2], p[0], p[1], p[2])
+    rotate_tensor(R, bf[b, INERTIA:INERTIA + 9], Ig)
+    x = cross3(w[0], w[1], w[2], p[0], p[1], p[2])
+    wwp = cross3(w[0], w[1], w[2], x[0], x[1], x[2])
+    alp = cross3(al[0], al[1], al[2], p[0], p[1], p[2])
     for i in range(3):
         fG[i] = m * (gvec[i] - (a[i] + alp[i] + wwp[i]))
     _mv(Ig, w, Iw)
     _mv(Ig, al, Ial)
-    gyr = _cross(w[0], w[1], w[2], Iw[0], Iw[1], Iw[2])
-    mom = _cross(p[0], p[1], p[2], fG[0], fG[1], fG[2])
+    gyr = cross3(w[0], w[1], w[2], Iw[0], Iw[1], Iw[2])
+    mom = cross3(p[0], p[1], p[2], fG[0], fG[1], fG[2])
     pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
     for i in range(3):
         for j in range(3):
@@ -384,7 +384,7 @@ def _rigid(b, gvec, fnodes, fflag, data, work, Mb, fy):
     if bi[b, HAS_JP]:
         # node polar inertia of flexible bodies without elastic DOFs,
         # sum J_p e_g e_g^T, with t = [0, e_g] (eq. A): no gyroscopic term
-        _rotate_tensor(R, bf[b, POLAR:POLAR + 9], Ig)
+        rotate_tensor(R, bf[b, POLAR:POLAR + 9], Ig)
         for i in range(3):
             for j in range(3):
                 Mb[3 + i, 3 + j] += Ig[i, j]
@@ -405,7 +405,7 @@ def _add_node_forces(b, fnodes, data, work, fy):
     for k in range(a0, a0 + bi[b, NNODE]):
         _mv(R, s0[k], pk)
         f = fnodes[k]
-        mk = _cross(pk[0], pk[1], pk[2], f[0], f[1], f[2])
+        mk = cross3(pk[0], pk[1], pk[2], f[0], f[1], f[2])
         for i in range(3):
             fy[i] += f[i]
             fy[3 + i] += mk[i] + f[3 + i]
@@ -587,10 +587,10 @@ def _node_sums(b, fnodes, fflag, data, work, Mee):
         mk = nm[a0 + k]
         sk0, sk1, sk2 = s[3 * k], s[3 * k + 1], s[3 * k + 2]
         acc = load[3 * k]
-        c1 = _cross(alb[0], alb[1], alb[2], sk0, sk1, sk2)
-        c2 = _cross(wb[0], wb[1], wb[2], sk0, sk1, sk2)
-        c3 = _cross(wb[0], wb[1], wb[2], c2[0], c2[1], c2[2])
-        c4 = _cross(wb[0], wb[1], wb[2], pdv[3 * k], pdv[3 * k + 1], pdv[3 * k + 2])
+        c1 = cross3(alb[0], alb[1], alb[2], sk0, sk1, sk2)
+        c2 = cross3(wb[0], wb[1], wb[2], sk0, sk1, sk2)
+        c3 = cross3(wb[0], wb[1], wb[2], c2[0], c2[1], c2[2])
+        c4 = cross3(wb[0], wb[1], wb[2], pdv[3 * k], pdv[3 * k + 1], pdv[3 * k + 2])
         if fflag[b]:
             _mtv(R, fnodes[a0 + k, 0:3], fk)
         else:
