@@ -11,11 +11,20 @@ case folder with TMax replaced; its executable is $OPENFAST or
 the OpenFAST wall time of the bundled log (`steady_08.log`, 100 s) is
 reported instead and scaled to 20 s.
 
-Each pair runs `--repeat` times, interleaved (modesel, OpenFAST, modesel, ...);
-the best wall time of each is reported (the machine's own noise, often 20-40 %
-on a shared virtual machine, only ever adds time), with the ratio of the bests.
+modesel runs twice per round: by itself (a fresh process pays Python's,
+numpy's and numba's start, about 0.5 s) and served (`modesel serve` started
+by the benchmark on a private socket; the command is the same, a fresh
+client process that hands it to the warm server, `modesel.server`; the
+server warms itself on the case after the untimed first run, as it does
+for any scene after its first request). Both write the same CSV (checked).
+--no-server leaves the served runs out.
 
-    python3 benchmarks/bench_openfast.py [--tmax 20 100] [--repeat 3]
+Each triple runs `--repeat` times, interleaved (modesel, modesel served,
+OpenFAST, modesel, ...); the best wall time of each is reported (the
+machine's own noise, often 20-40 % on a shared virtual machine, only ever
+adds time), with the ratio of the bests.
+
+    python3 benchmarks/bench_openfast.py [--tmax 20 100] [--repeat 3] [--no-server]
 """
 from __future__ import annotations
 
@@ -39,9 +48,28 @@ def openfast_exe():
     return exe if Path(exe).is_file() else None
 
 
-def run_modesel(tmax, out):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+def modesel_env(server="off"):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MODESEL_SERVER=str(server))
     env.pop("PYTHONDONTWRITEBYTECODE", None)     # warm: Python's bytecode of modesel written once, then read
+    return env
+
+
+def start_server(folder):
+    """`modesel serve` on a socket in `folder`, once it listens: (process, socket)."""
+    sock, log = Path(folder) / "s.sock", Path(folder) / "server.log"
+    with open(log, "w") as out:
+        proc = subprocess.Popen([sys.executable, "-m", "modesel", "serve", "--socket", str(sock), "--idle-exit",
+                                 "900"], stdout=out, stderr=subprocess.STDOUT, env=modesel_env())
+    end = time.monotonic() + 600
+    while "listening on" not in log.read_text():
+        if proc.poll() is not None or time.monotonic() > end:
+            raise SystemExit(f"modesel serve did not start:\n{log.read_text()}")
+        time.sleep(0.05)
+    return proc, sock
+
+
+def run_modesel(tmax, out, server="off"):
+    env = modesel_env(server)
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(FST), "--tmax", str(tmax),
                            "--out", str(out)], env=env, capture_output=True, text=True)
@@ -78,27 +106,44 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--tmax", type=float, nargs="+", default=[20.0, 100.0])
     p.add_argument("--repeat", type=int, default=3, help="runs of each; the best is reported")
+    p.add_argument("--no-server", action="store_true", help="leave out the runs served by `modesel serve`")
     args = p.parse_args(argv)
     exe = openfast_exe()
     with tempfile.TemporaryDirectory() as folder:
-        out = Path(folder) / "modesel.csv"
+        out, served_out = Path(folder) / "modesel.csv", Path(folder) / "served.csv"
         run_modesel(1.0, out)                                  # warm numba's cache
-        print(f"{'tmax [s]':>9} {'modesel [s]':>12} {'OpenFAST [s]':>13} {'ratio':>6}  source")
-        for tmax in args.tmax:
-            walls, refs = [], []
-            for _ in range(max(1, args.repeat)):
-                wall, line = run_modesel(tmax, out)
-                walls.append(wall)
+        server = None if args.no_server else start_server(folder)
+        try:
+            if server:
+                run_modesel(1.0, served_out, server[1])        # the server then warms itself on the case
+            print(f"{'tmax [s]':>9} {'modesel [s]':>12} {'served [s]':>11} {'OpenFAST [s]':>13} {'ratio':>6} "
+                  f"{'served':>7}  source")
+            for tmax in args.tmax:
+                walls, served, refs = [], [], []
+                for _ in range(max(1, args.repeat)):
+                    wall, line = run_modesel(tmax, out)
+                    walls.append(wall)
+                    if server:
+                        served.append(run_modesel(tmax, served_out, server[1])[0])
+                        if served_out.read_bytes() != out.read_bytes():
+                            raise SystemExit("the served run wrote another CSV than the run by itself")
+                    if exe:
+                        refs.append(run_openfast(exe, tmax, folder))
+                wall = min(walls)
                 if exe:
-                    refs.append(run_openfast(exe, tmax, folder))
-            wall = min(walls)
-            if exe:
-                ref, source = min(refs), f"OpenFAST run (best of {len(refs)})"
-            else:
-                ref, source = logged_openfast(tmax), "OpenFAST log (scaled)"
-            ratio = ref / wall if ref else float("nan")
-            print(f"{tmax:>9.0f} {wall:>12.2f} {ref or float('nan'):>13.2f} {ratio:>6.2f}  {source}")
-            print(f"          {line}")
+                    ref, source = min(refs), f"OpenFAST run (best of {len(refs)})"
+                else:
+                    ref, source = logged_openfast(tmax), "OpenFAST log (scaled)"
+                nan = float("nan")
+                ratio = ref / wall if ref else nan
+                best = min(served) if served else nan
+                print(f"{tmax:>9.0f} {wall:>12.2f} {best:>11.2f} {ref or nan:>13.2f} {ratio:>6.2f} "
+                      f"{(ref or nan) / best:>7.2f}  {source}")
+                print(f"          {line}")
+        finally:
+            if server:
+                server[0].terminate()
+                server[0].wait(timeout=60)
     return 0
 
 

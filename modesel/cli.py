@@ -111,7 +111,11 @@ COMMANDS = (
     "report",
     "export",
     "docs",
+    "serve",
 )
+#: commands whose module is not `modesel.commands.<name>`: `serve` runs
+#: `main` in its children, so it sits above this module (modesel.server)
+COMMAND_MODULES = {"serve": "modesel.server"}
 
 
 def _command_of(argv) -> str | None:
@@ -131,7 +135,9 @@ QUICK_EXIT = ("simulate", "linearize")
 
 
 def entry() -> None:
-    """The `modesel` console command (and `python -m modesel`): `main`, then,
+    """The `modesel` console command (and `python -m modesel`): a command of
+    `modesel.forwarding.SERVED` handed to a running `modesel serve` where one
+    is found (`forwarding.forward`), else `main`; then,
     after a command of QUICK_EXIT, the output flushed and the process ended
     at once (os._exit) with its exit code. Python's own shutdown, which
     finalises the modules and numba's and LLVM's objects one by one, took
@@ -139,7 +145,13 @@ def entry() -> None:
     commands end as Python ends them (their workers, storages and
     temporary folders are finalised at shutdown)."""
     argv = sys.argv[1:]
-    code = main(argv)
+    code = None
+    if _command_of(argv) in QUICK_EXIT:
+        from modesel import forwarding
+        if _command_of(argv) in forwarding.SERVED:     # a running `modesel serve` takes it
+            code = forwarding.forward(argv)
+    if code is None:
+        code = main(argv)
     if _command_of(argv) in QUICK_EXIT:
         for stream in (sys.stdout, sys.stderr):
             try:
@@ -161,9 +173,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in (command,) if command else COMMANDS:
         try:
-            module = importlib.import_module(f"modesel.commands.{name}")
+            module = importlib.import_module(COMMAND_MODULES.get(name, f"modesel.commands.{name}"))
         except ModuleNotFoundError as exc:  # command not built yet in this checkout
-            if exc.name != f"modesel.commands.{name}":
+            if exc.name != COMMAND_MODULES.get(name, f"modesel.commands.{name}"):
                 raise
             continue
         module.register(sub)
@@ -203,11 +215,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         if args.debug:
             raise
-        return _stopped("SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
+        return stopped("SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
     except Exception:
         if args.debug or not RECEIVED:
             raise
-        return _stopped(RECEIVED[0])    # an error that follows a signal (module doc): the signal is the cause
+        return stopped(RECEIVED[0])    # an error that follows a signal (module doc): the signal is the cause
     finally:
         _RUNNING.clear()
         sys.unraisablehook = previous_hook
@@ -215,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signum, handler)
 
 
-def _stopped(name: str) -> int:
+def stopped(name: str) -> int:
     """Print the one line of a command stopped by signal `name` ("SIGINT",
     "SIGTERM") and return its exit code (`Interrupted`'s)."""
     exc = Interrupted(f"interrupted ({name})", signal_name=name)

@@ -14,9 +14,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "modesel"
 #: layer of each top-level part of the package; a module may import only its
 #: own layer or lower ones (the README's Layout section)
 LAYERS = {
-    "errors": 0, "files": 0, "vocabulary": 0, "engine_cache": 0, "modeset": 1, "candidates": 1, "multibody": 2,
+    "errors": 0, "files": 0, "vocabulary": 0, "engine_cache": 0, "forwarding": 0, "modeset": 1, "candidates": 1, "multibody": 2,
     "turbine": 3, "aero": 3, "model": 4, "simulation": 5, "study": 6, "export": 6,
-    "search": 7, "convergence": 7, "commands": 8, "cli": 9, "__main__": 10, "": 10,
+    "search": 7, "convergence": 7, "commands": 8, "cli": 9, "server": 10, "__main__": 10, "": 10,
 }
 
 
