@@ -13,9 +13,7 @@ modesel), the caller runs the command itself. Standard library only.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
-import socket
 import stat
 import sys
 from pathlib import Path
@@ -69,12 +67,16 @@ def forward(argv: list) -> int | None:
         return None
     if not stat.S_ISSOCK(st.st_mode) or st.st_uid != os.getuid():
         return None
+    import json       # here: a command with no server to find imports neither (about 7 ms)
+    import socket
     try:
         for fd in (0, 1, 2):
             os.fstat(fd)
     except OSError:
         return None
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    received = []                       # signals while the request is on its way
+    previous = _pass_signals_on(sock, received)
     try:
         sock.connect(str(path))
         umask = os.umask(0)
@@ -83,37 +85,54 @@ def forward(argv: list) -> int | None:
                            "env": dict(os.environ), "umask": umask}).encode()
         socket.send_fds(sock, [len(body).to_bytes(HEADER, "big")], [0, 1, 2])
         sock.sendall(body)
-        if recv_exact(sock, 1) != b"A":        # refused (another modesel) or no answer
-            return None
+        taken = recv_exact(sock, 1) == b"A"         # else refused (another modesel) or no answer
     except OSError:
+        taken = False
+    if not taken:
         sock.close()
+        _restore(previous)
+        if received:        # Ctrl-C / SIGTERM before any command ran: stop here, as the command would
+            print(f"modesel: interrupted ({received[0]})", file=sys.stderr)
+            return 143 if received[0] == "SIGTERM" else 130
         return None
-    return _wait_for_exit(sock)
-
-
-def _wait_for_exit(sock) -> int:
-    """The client's side once the server took the request: signals passed on
-    to the child, the child's exit code returned."""
-    import signal
-
-    def pass_on(signum, frame):
-        try:
-            sock.send(b"T" if signum == signal.SIGTERM else b"I")
-        except OSError:
-            pass
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, pass_on)
     try:
         reply = recv_exact(sock, 1 + HEADER)
     except OSError:
         reply = b""
     finally:
         sock.close()
+        _restore(previous)
     if len(reply) == 1 + HEADER and reply[:1] == b"X":
         return int.from_bytes(reply[1:], "big", signed=True)
     print("modesel: error: the server's process for this command ended without an exit code "
           "(see the terminal of `modesel serve`)", file=sys.stderr)
     return 1
+
+
+def _pass_signals_on(sock, received: list) -> dict:
+    """SIGINT and SIGTERM sent on to the command's process through `sock`
+    (noted in `received`), except where ignored (a background job), as the
+    command by itself would; returns the previous handlers."""
+    import signal
+
+    def pass_on(signum, frame):
+        name = "SIGTERM" if signum == signal.SIGTERM else "SIGINT"
+        received.append(name)
+        try:
+            sock.send(b"T" if name == "SIGTERM" else b"I")
+        except OSError:
+            pass
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            previous[signum] = signal.signal(signum, pass_on)
+    return previous
+
+
+def _restore(previous: dict) -> None:
+    import signal
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
 
 
 def recv_exact(sock, n: int) -> bytes:
