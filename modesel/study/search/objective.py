@@ -30,6 +30,7 @@ user attributes modeset and duplicate_of (the earlier trial's number) only.
 from __future__ import annotations
 
 import math
+import weakref
 from pathlib import Path
 
 from modesel.errors import ModeselError
@@ -72,9 +73,11 @@ def load_case_errors(scene_errors: dict, weights: dict) -> dict:
     return {ch: sum(weights[s] * scene_errors[s][ch] for s in scene_errors) / total for ch in channels}
 
 
-#: ids of the objectives warmed up in this process (`Objective.warm_up`); a
-#: forked worker inherits the set with the warmed objects, a spawned one starts empty
-_WARMED: set = set()
+#: the objectives warmed up in this process (`Objective.warm_up`); a forked
+#: worker inherits the set with the warmed objects, a spawned one starts empty.
+#: Weak references, not ids: an id is reused once its object is collected, and
+#: a new objective at that address was taken for warmed (tests/test_search.py)
+_WARMED: weakref.WeakSet = weakref.WeakSet()
 
 
 class Objective:
@@ -162,7 +165,7 @@ class Objective:
         fixed cost per worker that took the tower study's 2-job speed-up
         from 2x to 1.6-1.7x (`benchmarks/bench_search.py`). Once per process
         and objective: a forked worker finds it done."""
-        if id(self) in _WARMED:
+        if self in _WARMED:
             return
         from modesel.model.outputs import canonical_channel
         compared = list(self.study.compare.channels)
@@ -192,7 +195,7 @@ class Objective:
                     few_steps(spec, modeset, **only)
                 except ModeselError:        # a set the scene cannot build: its trials will say so
                     continue
-        _WARMED.add(id(self))
+        _WARMED.add(self)
 
     def __call__(self, trial):
         try:
