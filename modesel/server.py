@@ -194,6 +194,7 @@ class Server:
                 os.unlink(self.path)
             except OSError:
                 pass
+        self.reap()                     # those that ended already (not to be announced as running)
         for pid in list(self.children):
             _kill(pid, signal.SIGTERM)
         try:
