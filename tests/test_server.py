@@ -24,12 +24,21 @@ def _env(**extra):
 
 
 def _children(pid: int) -> list:
-    """The live child processes of `pid` (Linux /proc)."""
+    """The live child processes of `pid` (Linux /proc: its `children` file,
+    or, on kernels without it, every process's parent in /proc/*/stat)."""
     try:
-        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+        return [int(p) for p in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
     except OSError:
-        return []
-    return [int(p) for p in text.split()]
+        pass
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            found.append(int(stat.parent.name))
+    return found
 
 
 def _wait_for(predicate, timeout=20.0):
