@@ -254,10 +254,9 @@ class Server:
                 self.say(f"refused (another modesel: its sources, interpreter or NUMBA_* differ from this "
                          f"server's; it runs by itself): {text}")
                 return
-            conn.sendall(b"A")
+            record = (text, time.monotonic(), self._warm_argv(request["argv"], request["cwd"]))
             conn.settimeout(None)
-            child = self._fork(conn, fds, request)
-            self.children[child] = (text, time.monotonic(), self._warm_argv(request["argv"], request["cwd"]))
+            self._fork(conn, fds, request, record)
         except (OSError, ValueError, KeyError, TypeError):
             return                 # a broken request: the client runs the command itself
         finally:
@@ -265,22 +264,29 @@ class Server:
                 os.close(fd)
             conn.close()
 
-    def _fork(self, conn, fds, request) -> int:
+    def _fork(self, conn, fds, request, record) -> None:
+        """Take the request (the answer "A") and fork its child; `record` is
+        kept in `children` under its pid before a signal to the server is let
+        through: a SIGTERM that lands here stops this child with the others,
+        or, before the answer, leaves the client to run the command itself."""
         import gc
         import signal
         for stream in (sys.stdout, sys.stderr):
             stream.flush()
         gc.freeze()                # the warm objects stay shared with the child (copy-on-write)
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-        pid = os.fork()
-        if pid == 0:
-            try:
-                self.listener.close()
-                run_request(conn, fds, request)        # never returns
-            finally:
-                os._exit(1)
-        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
-        return pid
+        try:
+            conn.sendall(b"A")
+            pid = os.fork()
+            if pid == 0:
+                try:
+                    self.listener.close()
+                    run_request(conn, fds, request)        # never returns
+                finally:
+                    os._exit(1)
+            self.children[pid] = record
+        finally:                # in the server only: the child ends in os._exit
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
     def reap(self, block: bool = False) -> None:
         """Collect ended children, log them, queue their scene's warm-up."""
