@@ -63,8 +63,8 @@ def main() -> None:
         import os
 
         from modesel.server import WARM_TMAX_S
-        simulate(load_scene(a.scene), tmax=WARM_TMAX_S, dt=WARM_TMAX_S,
-                 channels=written_channels(load_scene(a.scene), a.all_channels))
+        warm = load_scene(a.scene)
+        simulate(warm, tmax=WARM_TMAX_S, dt=WARM_TMAX_S, channels=written_channels(warm, a.all_channels))
         gc.freeze()
         pid = os.fork()
         if pid:

@@ -118,7 +118,7 @@ COMMANDS = (
 COMMAND_MODULES = {"serve": "modesel.server"}
 
 
-def _command_of(argv) -> str | None:
+def command_of(argv) -> str | None:
     """The command named by `argv` (its first word after the global options),
     None when none is named."""
     for word in argv:
@@ -146,13 +146,13 @@ def entry() -> None:
     temporary folders are finalised at shutdown)."""
     argv = sys.argv[1:]
     code = None
-    if _command_of(argv) in QUICK_EXIT:
+    if command_of(argv) in QUICK_EXIT:
         from modesel import forwarding
-        if _command_of(argv) in forwarding.SERVED:     # a running `modesel serve` takes it
+        if command_of(argv) in forwarding.SERVED:     # a running `modesel serve` takes it
             code = forwarding.forward(argv)
     if code is None:
         code = main(argv)
-    if _command_of(argv) in QUICK_EXIT:
+    if command_of(argv) in QUICK_EXIT:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
@@ -190,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     # the whole command (linearize, workers, reports) unless the user set it;
     # effective only before numpy is first imported, as here.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    parser = build_parser(_command_of(argv))
+    parser = build_parser(command_of(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

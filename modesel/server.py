@@ -42,11 +42,22 @@ Safety:
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
+import gc
+import io
 import json
+import math
 import os
+import select
+import signal
 import socket
+import struct
 import sys
+import tempfile
 import threading
+import time
+import traceback
 from pathlib import Path
 
 from modesel import cli
@@ -64,7 +75,6 @@ def run_request(conn, fds: list, request: dict) -> None:
     """In the forked child: take the client's descriptors, folder,
     environment and umask, run the command, send the exit code, end the
     process (never returns)."""
-    import signal
     code = 1
     done = threading.Event()
 
@@ -89,7 +99,6 @@ def run_request(conn, fds: list, request: dict) -> None:
     except KeyboardInterrupt as exc:        # before or after the command ran
         code = cli.stopped("SIGTERM" if isinstance(exc, cli.Terminated) else "SIGINT")
     except BaseException:       # noqa: BLE001 - whatever happens, the client gets an exit code
-        import traceback
         traceback.print_exc()
     finally:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})   # the reply goes out whole
@@ -110,8 +119,6 @@ def _watch_client(conn, done) -> None:
     """The child's thread on the client's socket: a signal the client passes
     on is sent to this process; the client gone (EOF) stops the command
     (module doc)."""
-    import signal
-    import time
     while True:
         try:
             data = conn.recv(1)
@@ -138,10 +145,9 @@ class Server:
         self.idle_exit_s = float(idle_exit_s)
         self.say = say
         self.stamp = code_stamp()
-        self.children: dict = {}        # pid -> (request text, start time, warm-up argv or None)
+        self.children: dict = {}        # pid -> (request text, start time, argv, folder)
         self.warmed: set = set()
-        self.pending_warm = [["simulate", os.path.abspath(s), "--tmax", f"{WARM_TMAX_S:g}",
-                              "--dt", f"{WARM_TMAX_S:g}"] for s in warm]
+        self.pending_warm = [_warm_simulation([os.path.abspath(s)]) for s in warm]
         self.listener = None
         self.pid = os.getpid()
 
@@ -183,8 +189,6 @@ class Server:
         them (a command in a compiled integration stops when it returns, as
         it would by itself); Ctrl-C or SIGTERM again kills them (SIGKILL).
         Only in the server itself, not in a child."""
-        import signal
-        import time
         if os.getpid() != self.pid:
             return
         if self.listener is not None:
@@ -213,8 +217,6 @@ class Server:
 
     def serve_forever(self) -> None:
         """Warm up, then take requests until stopped or idle for idle_exit_s."""
-        import select
-        import time
         self.warm_up()
         self.say(f"modesel serve: listening on {self.path} (Ctrl-C stops it; it stops by itself after "
                  f"{self.idle_exit_s:g} s without requests)")
@@ -236,8 +238,6 @@ class Server:
     # requests
 
     def accept(self) -> None:
-        import struct
-        import time
         conn, _ = self.listener.accept()
         fds = []
         try:
@@ -254,7 +254,7 @@ class Server:
                 self.say(f"refused (another modesel: its sources, interpreter or NUMBA_* differ from this "
                          f"server's; it runs by itself): {text}")
                 return
-            record = (text, time.monotonic(), self._warm_argv(request["argv"], request["cwd"]))
+            record = (text, time.monotonic(), request["argv"], request["cwd"])
             conn.settimeout(None)
             self._fork(conn, fds, request, record)
         except (OSError, ValueError, KeyError, TypeError):
@@ -269,8 +269,6 @@ class Server:
         kept in `children` under its pid before a signal to the server is let
         through: a SIGTERM that lands here stops this child with the others,
         or, before the answer, leaves the client to run the command itself."""
-        import gc
-        import signal
         for stream in (sys.stdout, sys.stderr):
             stream.flush()
         gc.freeze()                # the warm objects stay shared with the child (copy-on-write)
@@ -290,7 +288,6 @@ class Server:
 
     def reap(self, block: bool = False) -> None:
         """Collect ended children, log them, queue their scene's warm-up."""
-        import time
         for pid in list(self.children):
             try:
                 done, status = os.waitpid(pid, 0 if block else os.WNOHANG)
@@ -298,11 +295,11 @@ class Server:
                 done, status = pid, 0
             if not done:
                 continue
-            text, start, warm = self.children.pop(pid)
+            text, start, argv, cwd = self.children.pop(pid)
             code = os.waitstatus_to_exitcode(status)
             self.say(f"{text}: exit {code} in {time.monotonic() - start:.3f} s")
-            if warm is not None and code == 0:
-                self.pending_warm.append(warm)
+            if code == 0:            # its warm-up, parsed here: off the path of a request
+                self.pending_warm.append(self._warm_argv(argv, cwd))
 
     # warm-up
 
@@ -312,7 +309,7 @@ class Server:
         printed to nowhere), with paths made absolute; None where there is
         none to run (a parse error, another command)."""
         try:
-            command = cli._command_of(argv)
+            command = cli.command_of(argv)
             if command not in SERVED:
                 return None
             args = cli.build_parser(command).parse_args(argv)
@@ -323,16 +320,13 @@ class Server:
             absolute += ["--modeset", os.path.join(cwd, args.modeset)]
         if command == "simulate":
             extra = ["--no-stability-check"] if args.no_stability_check else []
-            return ["simulate", *absolute, *extra, "--tmax", f"{WARM_TMAX_S:g}", "--dt", f"{WARM_TMAX_S:g}"]
+            return _warm_simulation(absolute + extra)
         extra = (["--rpm", args.rpm] if args.rpm else []) + (["--no-aero"] if args.no_aero else [])
         return ["linearize", *absolute, *extra]
 
     def warm_up(self) -> None:
         """Run the queued warm-ups not run before, in this process (module
         doc); a failing one is said in one line and forgotten."""
-        import contextlib
-        import io
-        import tempfile
         while self.pending_warm:
             argv = self.pending_warm.pop(0)
             if argv is None or tuple(argv) in self.warmed:
@@ -350,6 +344,13 @@ class Server:
                 self.say(f"warm-up of {_printable(argv[1])} failed ({last}); its requests load it themselves")
 
 
+def _warm_simulation(scene_args: list) -> list:
+    """The warm-up of a simulation of `scene_args` (the scene and its
+    options): one output step of WARM_TMAX_S (the output file is added by
+    `Server.warm_up`)."""
+    return ["simulate", *scene_args, "--tmax", f"{WARM_TMAX_S:g}", "--dt", f"{WARM_TMAX_S:g}"]
+
+
 def _kill(pid: int, signum) -> None:
     try:
         os.kill(pid, signum)
@@ -365,7 +366,6 @@ def _printable(text: str) -> str:
 # --- the command ------------------------------------------------------------------------------
 
 def register(subparsers):
-    import argparse
     p = subparsers.add_parser("serve", help="keep a warm modesel for simulate and linearize",
                               description=COMMAND_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--socket", help="the Unix socket to listen on (default: see above)")
@@ -392,7 +392,6 @@ commands it runs) or after --idle-exit seconds without requests.
 
 
 def run(args) -> int:
-    import math
     if not math.isfinite(args.idle_exit) or args.idle_exit < 0:
         raise ModeselError(f"must be a finite number of seconds >= 0, got {args.idle_exit:g}", field="--idle-exit")
     for scene in args.warm:

@@ -123,7 +123,7 @@ def test_collector_paused_while_importing_then_restored():
     (["--help"], None), ([], None), (["simulat", "x"], None), (["--", "simulate"], None)])
 def test_cli_builds_only_the_named_command(argv, command):
     from modesel import cli
-    assert cli._command_of(argv) == command
+    assert cli.command_of(argv) == command
 
 
 def test_parsed_decks_are_cached_and_reread_when_a_file_changes(tmp_path, monkeypatch):

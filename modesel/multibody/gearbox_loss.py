@@ -16,23 +16,7 @@ import numpy as np
 from numba import cfunc, njit
 
 from modesel.multibody.kernel import (COL0, INERTIA, KIND, LOSS, LOSS_ETA, LOSS_K, LOSS_SIG, NCOL, RIGID, SOLVE,
-                                      SOLVE_HELD, cholesky_solve, cross3, free_rows, lu_solve, rotate_tensor)
-
-
-@njit(cache=True)
-def _solve_free(free, presc, qddp, M, F, Mf, Ff, acc, symmetric):
-    """acc = M_ff^-1 F_f from the full M and F (Mf, Ff rebuilt, Mf then
-    overwritten): Cholesky where `symmetric`, else (or where that fails)
-    Gaussian elimination; False if singular."""
-    free_rows(free, presc, qddp, M, F, Mf, Ff)
-    for a in range(free.shape[0]):
-        acc[a] = Ff[a]
-    if symmetric and cholesky_solve(Mf, acc):
-        return True
-    free_rows(free, presc, qddp, M, F, Mf, Ff)
-    for a in range(free.shape[0]):
-        acc[a] = Ff[a]
-    return lu_solve(Mf, acc)
+                                      SOLVE_HELD, cross3, free_rows, rotate_tensor, solve_free)
 
 
 @njit(cache=True)
@@ -88,7 +72,8 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
     if solve != SOLVE:
         _with_factor(bf[b, LOSS_K], g, row, Fg, r, bias, given, M, F)
         if solve == SOLVE_HELD:
-            if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
+            free_rows(free, presc, qddp, M, F, Mf, Ff)
+            if not solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
                 return 0
             for a in range(nf):
                 out[off + a] = x[a]
@@ -98,7 +83,7 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
     qdd = np.zeros(n)
     for k in range(presc.shape[0]):
         qdd[presc[k]] = qddp[presc[k]]
-    if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, True):
+    if not solve_free(free, presc, qddp, M, F, Mf, Ff, x, True):     # Mf, Ff as `free_system` formed them
         return 0
     factor = 1.0
     for attempt in range(3):
@@ -114,7 +99,8 @@ def _gearbox_loss(b, solve, free, presc, qddp, gen, bi, bf, ipool, R, vec, Jw, I
             break
         factor = wanted
         _with_factor(factor, g, row, Fg, r, bias, given, M, F)
-        if not _solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
+        free_rows(free, presc, qddp, M, F, Mf, Ff)
+        if not solve_free(free, presc, qddp, M, F, Mf, Ff, x, False):
             return 0
     bf[b, LOSS_K] = factor
     free_rows(free, presc, qddp, M, F, Mf, Ff)

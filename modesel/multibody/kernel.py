@@ -843,6 +843,24 @@ def free_rows(free, presc, qddp, M, F, Mf, Ff):
             Mf[a, b] = M[free[a], free[b]]
 
 
+@njit(cache=True)
+def solve_free(free, presc, qddp, M, F, Mf, Ff, acc, symmetric):
+    """acc = M_ff^-1 F_f from Mf and Ff as `free_rows` left them (Mf
+    overwritten): by Cholesky where `symmetric`, by Gaussian elimination
+    otherwise or where M_ff is not positive definite (Mf then formed again
+    from M). False if singular (an exact zero pivot)."""
+    nf = free.shape[0]
+    for a in range(nf):
+        acc[a] = Ff[a]
+    if symmetric:
+        if cholesky_solve(Mf, acc):
+            return True
+        free_rows(free, presc, qddp, M, F, Mf, Ff)
+        for a in range(nf):
+            acc[a] = Ff[a]
+    return lu_solve(Mf, acc)
+
+
 #: the `solve` argument of `free_system` (numpy int64s, typed int64 as in
 #: SYSTEM_SIG; numba types a literal int as Literal[int]): M_ff and F_f only;
 #: also the accelerations; also the accelerations, with the effects' costly
@@ -935,16 +953,8 @@ def free_system(t, x, out, solve, bounds, prob, rwork, data, work):
             return OK, -1
     if solve == NO_SOLVE:
         return OK, -1
-    for a in range(nf):
-        out[nf + a] = Ff[a]
-    if not cholesky_solve(Mf, out[nf:]):
-        # not positive definite: Gaussian elimination, singular only at an exact zero pivot
-        for a in range(nf):
-            out[nf + a] = Ff[a]
-            for b in range(nf):
-                Mf[a, b] = M[free[a], free[b]]
-        if not lu_solve(Mf, out[nf:]):
-            return SINGULAR, -1
+    if not solve_free(free, presc, qddp, M, F, Mf, Ff, out[nf:], True):
+        return SINGULAR, -1
     for a in range(nf):
         if not np.isfinite(out[nf + a]):
             return NON_FINITE_ACC, -1
