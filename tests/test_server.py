@@ -101,6 +101,35 @@ def test_served_simulate_is_the_command_run_by_itself(server, tmp_path):
     assert _wait_for(lambda: "linearize " in log.read_text() and "--json: exit 0" in log.read_text())
 
 
+def test_a_served_command_reads_the_aerodyn_deck_as_it_now_is(server, tmp_path):
+    """After the server has run an OpenFAST case with AeroDyn (and kept its
+    deck), an edit of the AeroDyn file reaches the next served command: it
+    writes what the command writes by itself, byte for byte (the deck was
+    kept by path alone: the served run kept TipLoss on after it was switched off)."""
+    import shutil
+    proc, sock, log = server
+    for folder in ("steady_08", "common"):
+        shutil.copytree(ROOT / "studies/data/openfast" / folder, tmp_path / folder,
+                        ignore=shutil.ignore_patterns("*.outb"))
+    case = tmp_path / "steady_08" / "steady_08.fst"
+
+    def run(out, where):
+        done = subprocess.run([sys.executable, "-m", "modesel", "simulate", str(case), "--tmax", "0.5",
+                               "--out", str(tmp_path / out)], capture_output=True, text=True,
+                              env=_env(MODESEL_SERVER=where))
+        assert done.returncode == 0, done.stderr
+        return (tmp_path / out).read_bytes()
+
+    run("first.csv", str(sock))       # then the server warms this case up (numba's cache filled by now)
+    assert _wait_for(lambda: "first.csv: exit 0" in log.read_text()), log.read_text()
+    before = run("before.csv", str(sock))             # a child of the server that warmed this case up
+    deck = tmp_path / "common" / "NREL5MW_AD_v5.dat"
+    deck.write_text(deck.read_text().replace("True          TipLoss", "False         TipLoss"))
+    served = run("served.csv", str(sock))
+    assert _wait_for(lambda: "served.csv: exit 0" in log.read_text()), log.read_text()
+    assert served == run("alone.csv", "off") != before
+
+
 def test_another_modesel_is_refused_and_runs_by_itself(server, tmp_path):
     proc, sock, log = server
     command, env = _simulate(sock, tmp_path / "a.csv", NUMBA_MODESEL_TEST="1")

@@ -24,7 +24,7 @@ from modesel.aero.bem import PITT_PETERS_FACTOR, BemOptions
 from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
 from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, check_tower_table
-from modesel.turbine.deck_cache import cached
+from modesel.turbine.deck_cache import cached, remembered
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
 #: OpenFAST glue code's AirDens 1.225 kg/m^3, KinVisc 1.464e-5 m^2/s,
@@ -210,6 +210,14 @@ def read_aerodyn(path) -> AeroDynDeck:
     Parsed decks are cached on disk (`modesel.turbine.deck_cache`)."""
     return cached(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources,
                   code=(__name__, "modesel.aero.airfoils"))
+
+
+def shared_aerodyn(path) -> AeroDynDeck:
+    """`read_aerodyn`, the same object again while the main, blade and airfoil
+    files are unchanged (`deck_cache.remembered`): for callers that do not
+    change it (the aero effects, built many times by one process)."""
+    return remembered(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources,
+                      code=(__name__, "modesel.aero.airfoils"))
 
 
 def _aerodyn_sources(deck: AeroDynDeck) -> list:

@@ -28,6 +28,13 @@ as every file it came from is unchanged.
   taken by every later process).
 - Every call returns a fresh copy (unpickled), so callers may change it.
 - At most `MAX_ENTRIES` entries: writing one more removes the older half.
+
+`remembered(reader, path, ...)` also keeps the value in this process and
+returns that same object again while the stamps of its files are those
+taken when it was read (one `stat` per file and call): for a value its
+callers do not change, read many times by one process (a search's trials,
+the warm server `modesel serve` and the children it forks). An edited
+file is read again at the next call, as by a fresh process.
 """
 from __future__ import annotations
 
@@ -135,6 +142,33 @@ def cached(reader, path, *args, files=None, code=None):
     except Exception:   # unwritable cache or unpicklable value: no cache
         if stream is not None and os.path.exists(stream.name):
             os.unlink(stream.name)
+    return value
+
+
+#: values of `remembered`: key -> (files, their stamps, value)
+_REMEMBERED: dict = {}
+
+
+def remembered(reader, path, *args, files=None, code=None):
+    """`cached(reader, path, *args, files=files, code=code)`, the same object
+    again while every file it came from keeps its stamp (module doc). The
+    stamps are taken after the read, as `cached` takes its manifest."""
+    key = (reader.__module__, reader.__qualname__, str(Path(path).resolve()), args)
+    kept = _REMEMBERED.get(key)
+    if kept is not None:
+        sources, stamps, value = kept
+        try:
+            if [_stamp(f) for f in sources] == stamps:
+                return value
+        except OSError:             # a file gone: read again (the reader names what is missing)
+            pass
+    _REMEMBERED.pop(key, None)
+    value = cached(reader, path, *args, files=files, code=code)
+    sources = [str(f) for f in (files(value) if files else [path])]
+    try:
+        _REMEMBERED[key] = (sources, [_stamp(f) for f in sources], value)
+    except OSError:
+        pass
     return value
 
 

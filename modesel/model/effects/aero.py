@@ -102,7 +102,6 @@ OpenFAST case passes the .fst AirDens where the deck says "default").
 """
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
 import numpy as np
@@ -120,10 +119,12 @@ from modesel.multibody.rotations import cross
 CP_MIN_WIND = 0.04
 
 
-@functools.lru_cache(maxsize=8)
 def _read_deck(path: str):
-    from modesel.turbine.aerodyn import read_aerodyn
-    return read_aerodyn(path)
+    """The deck at `path`, read again where one of its files changed (a
+    deck kept by path alone gave a warm server's commands the deck as it was
+    at the server's first run)."""
+    from modesel.turbine.aerodyn import shared_aerodyn
+    return shared_aerodyn(path)
 
 
 def aerodyn_deck(effect):
