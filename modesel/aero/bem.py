@@ -153,12 +153,24 @@ def _elementwise(scalar):
     return front
 
 
+#: exponent f from which 2/pi acos(exp(-f)) is 1.0 in double precision:
+#: exp(-f) < 8.6e-17 lies below half the spacing of doubles at pi/2, so acos
+#: returns pi/2 itself (numba's compiled acos and exp give 1.0 from f = 36.3
+#: on, 4 million f in [35, 800]). Most elements' hub loss lies there
+#: (NREL 5-MW: f = B (r - R_hub) / (2 R_hub |sin phi|) > 37 from r = 5 m).
+PRANDTL_ONE = 37.0
+
+
 @njit(cache=True, inline="always")
 def _prandtl(c, s):
-    """2/pi acos(exp(-c / |sin phi|)) (AeroDyn getHubTipLossCorrection), 0 for c <= 0."""
+    """2/pi acos(exp(-c / |sin phi|)) (AeroDyn getHubTipLossCorrection), 0 for c <= 0;
+    1.0 without exp and acos where it is 1.0 in double precision (PRANDTL_ONE)."""
     if c <= 0.0:
         return 0.0
-    return (2.0 / np.pi) * np.arccos(np.exp(-c / max(abs(s), 1e-300)))
+    f = c / max(abs(s), 1e-300)
+    if f >= PRANDTL_ONE:
+        return 1.0
+    return (2.0 / np.pi) * np.arccos(np.exp(-f))
 
 
 @njit(cache=True)
@@ -348,29 +360,33 @@ def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter, guess):
     """Bracket (Ning's order) and solve R(phi) = 0 with Chandrupatla's method.
 
     guess [rad]: a root of this element at a nearby state (the previous
-    right-hand side), or NaN. A guess in Ning's first bracket (0, pi/2] is
-    tried first as the bracket c -/+ WARM_BRACKET (clipped to it), c the
-    multiple of WARM_BRACKET nearest the guess (so the guess, within half a
-    bracket of c, lies well inside, and the root's last digits, which depend
-    on the path of the solve that found it, do not carry over): where
-    R changes sign there, a root of the first bracket lies in it, the one the
-    cold solve finds wherever R has a single root in (0, pi/2] (with several,
-    the warm solve stays on the previous right-hand side's branch), in about
-    half the residual evaluations. Otherwise the cold brackets in Ning's order.
+    right-hand side), or NaN. A guess in Ning's first bracket (0, pi/2]
+    starts at c, the multiple of WARM_BRACKET nearest the guess (so the
+    result depends on the guess only through c, not on the last digits that
+    the path of the previous solve set): R at c, then at c + WARM_BRACKET
+    toward the root (R increases through it on the momentum branch: up where
+    R(c) < 0), or, where R has no sign change there, at c - WARM_BRACKET
+    (all clipped to the bracket). A sign change brackets a root of the
+    first bracket, the one the cold solve finds wherever R has a single root
+    in (0, pi/2] (with several, the warm solve stays on the previous right-hand
+    side's branch), in about half the residual evaluations of the cold
+    solve. Otherwise the cold brackets in Ning's order.
 
     Returns (phi, found, iterations)."""
     eps = 1e-6
     lo, hi = eps, 0.5 * np.pi
     if guess > eps and guess <= hi:             # NaN compares False
-        # the bracket about the lattice point (multiples of WARM_BRACKET) nearest
-        # the guess: the result then depends on the guess only through that
-        # point, not on its last digits (which the path of the previous solve sets)
-        centre = np.floor(guess / WARM_BRACKET + 0.5) * WARM_BRACKET
-        w_lo, w_hi = max(centre - WARM_BRACKET, eps), min(centre + WARM_BRACKET, hi)
-        f_lo = _residual(w_lo, e, offset, flags, grid, value, slope)
-        f_hi = _residual(w_hi, e, offset, flags, grid, value, slope)
-        if f_lo * f_hi <= 0.0:
-            return _chandrupatla(w_lo, f_lo, w_hi, f_hi, e, offset, flags, grid, value, slope, tol, max_iter)
+        centre = min(max(np.floor(guess / WARM_BRACKET + 0.5) * WARM_BRACKET, eps), hi)
+        f_c = _residual(centre, e, offset, flags, grid, value, slope)
+        if f_c == 0.0:
+            return centre, True, 0
+        for side in (1.0, -1.0):
+            other = min(max(centre + side * np.copysign(WARM_BRACKET, -f_c), eps), hi)
+            if other != centre:
+                f_o = _residual(other, e, offset, flags, grid, value, slope)
+                if f_c * f_o <= 0.0:
+                    return _chandrupatla(centre, f_c, other, f_o, e, offset, flags, grid, value, slope, tol,
+                                         max_iter)
     f_lo = _residual_apart(lo, e, offset, flags, grid, value, slope)
     f_hi = _residual_apart(hi, e, offset, flags, grid, value, slope)
     if f_lo * f_hi > 0.0:
@@ -388,16 +404,24 @@ def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter, guess):
 
 
 @njit(cache=True)
-def _chandrupatla(lo, f_lo, hi, f_hi, e, offset, flags, grid, value, slope, tol, max_iter):
-    """Chandrupatla (1997) on the bracket [lo, hi] of R (f_lo f_hi <= 0): (phi, True, iterations)."""
-    if f_lo == 0.0:
-        return lo, True, 0
-    if f_hi == 0.0:
-        return hi, True, 0
+def _chandrupatla(a, f_a, b, f_b, e, offset, flags, grid, value, slope, tol, max_iter):
+    """Chandrupatla (1997) on the bracket of a and b (f_a f_b <= 0, either order):
+    (phi, True, iterations). The first step is the secant's (regula falsi)
+    where Chandrupatla bisects: a warm bracket (`_solve_phi`) holds the root
+    within a fraction of its width. It stops where the bracket is narrower
+    than tol, or where the secant over it puts the newest point within
+    tol / 10 of the root (|f1| |x2 - x1| / |f2 - f1|): the step that would
+    only shrink the bracket onto a point already converged is left out."""
+    if f_a == 0.0:
+        return a, True, 0
+    if f_b == 0.0:
+        return b, True, 0
     # Chandrupatla (1997): x1 newest point, x2 the other bracket end, x3 the previous
-    x1, f1, x2, f2 = hi, f_hi, lo, f_lo
+    x1, f1, x2, f2 = b, f_b, a, f_a
     x3, f3 = x2, f2
-    t = 0.5
+    width = abs(x2 - x1)
+    tl = 0.5 * (4.0 * 2.2e-16 * max(abs(x1), abs(x2)) + tol) / width
+    t = min(max(f1 / (f1 - f2), tl), 1.0 - tl)
     it = 0
     while it < max_iter:
         it += 1
@@ -411,7 +435,7 @@ def _chandrupatla(lo, f_lo, hi, f_hi, e, offset, flags, grid, value, slope, tol,
         x1, f1 = xt, ft
         width = abs(x2 - x1)
         tl = 0.5 * (4.0 * 2.2e-16 * max(abs(x1), abs(x2)) + tol) / width
-        if tl > 0.5 or f1 == 0.0:
+        if tl > 0.5 or f1 == 0.0 or abs(f1) * width <= 0.1 * tol * abs(f2 - f1):
             break
         xi = (x1 - x2) / (x3 - x2)
         ph = (f1 - f2) / (f3 - f2)
