@@ -62,7 +62,9 @@ def main() -> None:
     if a.warm:
         import os
 
+        from modesel.multibody.blas import keep_one_thread
         from modesel.server import WARM_TMAX_S
+        keep_one_thread()               # as the server (`Server.serve_forever`)
         warm = load_scene(a.scene)
         simulate(warm, tmax=WARM_TMAX_S, dt=WARM_TMAX_S, channels=written_channels(warm, a.all_channels))
         gc.freeze()

@@ -63,6 +63,7 @@ from pathlib import Path
 from modesel import cli
 from modesel.errors import ModeselError
 from modesel.forwarding import ENV, HEADER, SERVED, code_stamp, recv_exact, socket_path
+from modesel.multibody.blas import keep_one_thread
 
 #: the simulated time [s] and output step of a warm-up run
 WARM_TMAX_S = 0.05
@@ -217,6 +218,7 @@ class Server:
 
     def serve_forever(self) -> None:
         """Warm up, then take requests until stopped or idle for idle_exit_s."""
+        keep_one_thread()    # even where the user set OPENBLAS_NUM_THREADS: no BLAS pool in the children
         self.warm_up()
         self.say(f"modesel serve: listening on {self.path} (Ctrl-C stops it; it stops by itself after "
                  f"{self.idle_exit_s:g} s without requests)")

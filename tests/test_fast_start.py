@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -85,6 +86,41 @@ def test_scipy_blas_loaded_alone_serves_numba_and_scipy():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True"] * 4
+
+
+def test_forked_child_of_a_one_thread_blas_starts_no_blas_threads():
+    """After a fork OpenBLAS starts its pool of threads again when its count
+    is set (they spin about 0.1 s, taking a 2-core machine's time from the
+    simulation): `single_thread_blas` leaves a BLAS already at one thread
+    alone, so a child of a process that keeps one thread (`keep_one_thread`,
+    `modesel serve`) runs with its one thread, while setting the count in a
+    child of a two-thread BLAS starts the pool (the case it avoids)."""
+    code = textwrap.dedent("""
+        import os
+        from modesel.multibody import blas
+        def threads_in_child(action):
+            pid = os.fork()
+            if pid == 0:
+                action()
+                os._exit(len(os.listdir("/proc/self/task")))
+            return os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+        def simulate_like():
+            with blas.single_thread_blas():
+                pass
+        def set_one():
+            for _, set_ in blas._blas_thread_controls():
+                set_(1)
+        blas.load_scipy_blas()
+        assert blas._blas_thread_controls()
+        started = threads_in_child(set_one)
+        blas.keep_one_thread()
+        print(started, threads_in_child(simulate_like))
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
+                          env=dict(os.environ, OPENBLAS_NUM_THREADS="2"))
+    assert done.returncode == 0, done.stderr
+    started, kept = map(int, done.stdout.split())
+    assert started > 1 and kept == 1
 
 
 def test_collector_paused_while_importing_then_restored():

@@ -89,12 +89,21 @@ def _blas_thread_controls():
 
 
 class single_thread_blas:
-    """Context manager: one OpenBLAS thread inside, the previous counts restored after."""
+    """Context manager: one OpenBLAS thread inside, the previous counts restored after.
+
+    An OpenBLAS already at one thread is left alone: after a fork its pool
+    of threads is gone, and setting any count starts it again (OpenBLAS
+    `goto_set_num_threads`), workers that spin for about 0.1 s. In a forked
+    child of a process whose OpenBLAS ran two threads (no
+    OPENBLAS_NUM_THREADS=1, which `cli.main` sets for its own commands), they
+    took the two cores' time from the child: its first simulation of
+    steady_08 (one output step) ran 0.12-0.13 s instead of 0.06 s, with
+    0.19-0.20 s of CPU; with `keep_one_thread` before the fork, 0.06 s."""
 
     def __enter__(self):
         load_scipy_blas()     # the BLAS numba's matrix products call, loaded before looking for it
 
-        self._saved = [(get(), set_) for get, set_ in _blas_thread_controls()]
+        self._saved = [(count, set_) for get, set_ in _blas_thread_controls() if (count := get()) != 1]
         for _, set_ in self._saved:
             set_(1)
         return self
@@ -103,3 +112,13 @@ class single_thread_blas:
         for count, set_ in self._saved:
             set_(count)
         return False
+
+
+def keep_one_thread() -> None:
+    """One OpenBLAS thread from now on in this process, and in the processes
+    it forks, which then start no pool of BLAS threads (`single_thread_blas`):
+    `modesel serve` where the user set OPENBLAS_NUM_THREADS, and the
+    benchmark of its children (`benchmarks/simulate_phases.py --warm`)."""
+    load_scipy_blas()
+    for _, set_ in _blas_thread_controls():
+        set_(1)
