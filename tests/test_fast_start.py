@@ -190,22 +190,23 @@ def test_parsed_decks_are_cached_and_reread_when_a_file_changes(tmp_path, monkey
 
 
 def test_aero_deck_kept_in_the_process_is_read_again_when_a_file_changes(tmp_path, monkeypatch):
-    """The aero effects take their AeroDyn deck from `aerodyn.shared_aerodyn`:
+    """The aero effects take their AeroDyn deck from `aerodyn.shared_aerodyn`
+    (`effects.aero.aerodyn_deck`):
     the same object while its files are unchanged, and the deck as it now
     is after an edit of the main file or of an airfoil file (it was kept by
     path alone, so a warm server's commands ran the deck of its first run)."""
     import shutil
 
-    from modesel.model.effects.aero import _read_deck
+    from modesel.turbine.aerodyn import shared_aerodyn
     monkeypatch.setenv("MODESEL_CACHE_DIR", str(tmp_path / "cache"))
     common = tmp_path / "common"
     shutil.copytree(ROOT / "studies/data/openfast/common", common)
     main = common / "NREL5MW_AD_v5.dat"
-    first = _read_deck(str(main))
-    assert _read_deck(str(main)) is first and first.bem.tip_loss
+    first = shared_aerodyn(main)
+    assert shared_aerodyn(main) is first and first.bem.tip_loss
     main.write_text(main.read_text().replace("True          TipLoss", "False         TipLoss"))
     os.utime(main, ns=(main.stat().st_atime_ns, main.stat().st_mtime_ns + 10**9))
-    edited = _read_deck(str(main))
+    edited = shared_aerodyn(main)
     assert edited is not first and not edited.bem.tip_loss
     polar = Path(sorted(p.name for b in edited.blades for p in b.polars.polars)[-1])
     polar = polar if polar.is_absolute() else common / polar
@@ -217,7 +218,7 @@ def test_aero_deck_kept_in_the_process_is_read_again_when_a_file_changes(tmp_pat
     lines[row] = "  ".join(cols)
     polar.write_text("\n".join(lines) + "\n")
     os.utime(polar, ns=(polar.stat().st_atime_ns, polar.stat().st_mtime_ns + 10**9))
-    again = _read_deck(str(main))
+    again = shared_aerodyn(main)
     assert again is not edited and not np.array_equal(again.blades[0].polars.arrays[1], cl_before)
 
 

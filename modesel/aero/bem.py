@@ -351,7 +351,8 @@ def _residual_apart(phi, e, offset, flags, grid, value, slope):
     return _residual(phi, e, offset, flags, grid, value, slope)
 
 
-#: half-width [rad] of the bracket about a previous root (`_solve_phi`'s guess)
+#: spacing [rad] of the lattice a warm solve starts on, and the width of its
+#: bracket beside the lattice point (`_solve_phi`'s guess)
 WARM_BRACKET = 2e-3
 
 
@@ -403,6 +404,13 @@ def _solve_phi(e, offset, flags, grid, value, slope, tol, max_iter, guess):
     return _chandrupatla(lo, f_lo, hi, f_hi, e, offset, flags, grid, value, slope, tol, max_iter)
 
 
+@njit(cache=True, inline="always")
+def _step_floor(x1, x2, tol):
+    """Chandrupatla's smallest step, as a fraction of the bracket [x1, x2]:
+    half the tolerance (tol plus four ulps of the larger end) over its width."""
+    return 0.5 * (4.0 * 2.2e-16 * max(abs(x1), abs(x2)) + tol) / abs(x2 - x1)
+
+
 @njit(cache=True)
 def _chandrupatla(a, f_a, b, f_b, e, offset, flags, grid, value, slope, tol, max_iter):
     """Chandrupatla (1997) on the bracket of a and b (f_a f_b <= 0, either order):
@@ -419,8 +427,7 @@ def _chandrupatla(a, f_a, b, f_b, e, offset, flags, grid, value, slope, tol, max
     # Chandrupatla (1997): x1 newest point, x2 the other bracket end, x3 the previous
     x1, f1, x2, f2 = b, f_b, a, f_a
     x3, f3 = x2, f2
-    width = abs(x2 - x1)
-    tl = 0.5 * (4.0 * 2.2e-16 * max(abs(x1), abs(x2)) + tol) / width
+    tl = _step_floor(x1, x2, tol)
     t = min(max(f1 / (f1 - f2), tl), 1.0 - tl)
     it = 0
     while it < max_iter:
@@ -434,7 +441,7 @@ def _chandrupatla(a, f_a, b, f_b, e, offset, flags, grid, value, slope, tol, max
             x2, f2 = x1, f1
         x1, f1 = xt, ft
         width = abs(x2 - x1)
-        tl = 0.5 * (4.0 * 2.2e-16 * max(abs(x1), abs(x2)) + tol) / width
+        tl = _step_floor(x1, x2, tol)
         if tl > 0.5 or f1 == 0.0 or abs(f1) * width <= 0.1 * tol * abs(f2 - f1):
             break
         xi = (x1 - x2) / (x3 - x2)

@@ -119,14 +119,6 @@ from modesel.multibody.rotations import cross
 CP_MIN_WIND = 0.04
 
 
-def _read_deck(path: str):
-    """The deck at `path`, read again where one of its files changed (a
-    deck kept by path alone gave a warm server's commands the deck as it was
-    at the server's first run)."""
-    from modesel.turbine.aerodyn import shared_aerodyn
-    return shared_aerodyn(path)
-
-
 def aerodyn_deck(effect):
     """The AeroDyn deck of an effect's `aerodyn` option (default: the
     built-in turbine's bundled deck)."""
@@ -139,7 +131,10 @@ def aerodyn_deck(effect):
         path = str(bundled)
     if not Path(path).is_file():
         raise ModeselError("AeroDyn file not found", file=path, field=f"effects.{effect.name}.aerodyn")
-    return _read_deck(str(Path(path).resolve()))
+    # kept while its files are unchanged (kept by path alone, a warm server's
+    # commands ran the deck as it was at the server's first run)
+    from modesel.turbine.aerodyn import shared_aerodyn
+    return shared_aerodyn(path)
 
 
 def wind_of(effect, built):
