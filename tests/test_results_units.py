@@ -157,6 +157,7 @@ def test_progress_bar_and_simulation_line(capsys):
     assert quiet.bar is None and capsys.readouterr().err == ""
     # 20 s simulated in 87 s: two significant digits, not "0x"
     assert speed_text(20.0, 87.0) == "0.23x real time"
+    assert speed_text(800.0, 4.58) == "170x real time"         # not "1.7e+02x"
     line = SimulationProgress("scene: ", enabled=True).line(5.0, 20.0, 10.0)
     assert line == "scene: simulated 5 of 20 s, 0.5x real time, ETA 30 s"
 

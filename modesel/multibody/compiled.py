@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from modesel.multibody import implicit, kernel, rk45_tableau
+from modesel.multibody.watch import run_watched
 
 
 def spring_dampers(linear) -> list:
@@ -208,28 +209,29 @@ class CompiledRHS:
         out[:, len(idx):] *= np.array([self.channels[c][1] for c in channels])
         return out
 
-    def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+    def dop853(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, table, progress=None):
         """Integrate from x0 = [q, qd] over [0, tmax] with DOP853
         (`kernel.runge_kutta`, `table` of `dop853_tableau`):
-        (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval)."""
-        return self._explicit(kernel.DOP853_KIND, x0, t_eval, tmax, rtol, atol, max_step, bounds, table)
+        (status, time, n_rhs, index, outputs Y (n_out x 2n) at t_eval).
+        The loop runs in a thread that this one watches (`watch.run_watched`:
+        progress(t, tmax) about every quarter second, Ctrl-C)."""
+        return self._explicit(kernel.DOP853_KIND, x0, t_eval, tmax, rtol, atol, max_step, bounds, table, progress)
 
-    def rk45(self, x0, t_eval, tmax, rtol, atol, max_step, bounds):
+    def rk45(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, progress=None):
         """As `dop853`, with Dormand-Prince 5(4) (`rk45_tableau`)."""
         return self._explicit(kernel.RK45_KIND, x0, t_eval, tmax, rtol, atol, max_step, bounds,
-                              rk45_tableau.TABLE)
+                              rk45_tableau.TABLE, progress)
 
-    def _explicit(self, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table):
+    def _explicit(self, kind, x0, t_eval, tmax, rtol, atol, max_step, bounds, table, progress):
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
         Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
         # argument types: `first_run.loop_signatures`, which the first run compiles
-        code, t_stop, nfev, n_out, idx = kernel.runge_kutta(_system(), np.array(x0, float),
-                                                            np.asarray(t_eval, float), float(tmax), float(rtol),
-                                                            np.asarray(atol, float), float(max_step),
-                                                            np.asarray(bounds, float), tuple(table), kind,
-                                                            self.prob, self.rwork, p.data, p.work, Y)
+        args = (_system(), np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
+                np.asarray(atol, float), float(max_step), np.asarray(bounds, float), tuple(table), kind,
+                self.prob, self.rwork, p.data, p.work, Y)
+        code, t_stop, nfev, n_out, idx = run_watched(kernel.runge_kutta, args, tmax, progress)
         return code, t_stop, nfev, idx, Y[:n_out]
 
     def jacobian(self, t, q, qd, held=False):
@@ -253,18 +255,19 @@ class CompiledRHS:
             A[:], B[:] = np.nan, np.nan
         return A, B
 
-    def radau(self, x0, t_eval, tmax, rtol, atol, max_step, bounds):
+    def radau(self, x0, t_eval, tmax, rtol, atol, max_step, bounds, progress=None):
         """Radau IIA (order 5) entirely compiled (`implicit.radau5`), with the
         Jacobian by compiled finite differences: (status, time, n_rhs, index,
-        outputs Y (n_out x 2n) at t_eval, {"n_jac", "n_lu", "n_steps"})."""
+        outputs Y (n_out x 2n) at t_eval, {"n_jac", "n_lu", "n_steps"}),
+        watched as `dop853`."""
         if not self.compilable:
             raise ValueError("a prescribed coordinate is a Python function: use scipy")
         Y = np.zeros((len(t_eval), len(x0)))
         p = self.packed
-        code, t_stop, nfev, n_out, idx, n_jac, n_lu, n_steps = implicit.radau5(
-            _system(), np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
-            np.asarray(atol, float), float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob,
-            self.rwork, p.data, p.work, Y)
+        args = (_system(), np.array(x0, float), np.asarray(t_eval, float), float(tmax), float(rtol),
+                np.asarray(atol, float), float(max_step), np.asarray(bounds, float), implicit.TABLE, self.prob,
+                self.rwork, p.data, p.work, Y)
+        code, t_stop, nfev, n_out, idx, n_jac, n_lu, n_steps = run_watched(implicit.radau5, args, tmax, progress)
         return code, t_stop, nfev, idx, Y[:n_out], {"n_jac": int(n_jac), "n_lu": int(n_lu),
                                                       "n_steps": int(n_steps)}
 

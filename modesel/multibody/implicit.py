@@ -44,8 +44,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from modesel.multibody.kernel import (BEYOND_BOUND, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE, SOLVE_HELD,
-                                      STEP_COLLAPSE, lu_factor, lu_solve_factored, start)
+from modesel.multibody.kernel import (BEYOND_BOUND, INTERRUPTED, NON_FINITE_ACC, NON_FINITE_STATE, OK, SOLVE,
+                                      SOLVE_HELD, STEP_COLLAPSE, STOP_REQUEST, TIME_REACHED, lu_factor,
+                                      lu_solve_factored, start)
 
 S6 = 6 ** 0.5
 C = np.array([(4 - S6) / 10, (4 + S6) / 10, 1.0])
@@ -155,14 +156,17 @@ def _norm(e, scale):
     return np.sqrt(s / e.shape[0])
 
 
-@njit(cache=True)
-def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y):
+@njit(cache=True, nogil=True)
+def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rwork, data, work, Y, control):
     """Radau IIA order 5 from x0 = [q, qd] over [0, tmax], outputs at t_eval
     (increasing, within [0, tmax]) into Y.
 
+    control (2,): as `kernel.runge_kutta`'s (the time of each accepted step
+    out, a stop request in); it runs without the GIL.
+
     Returns (status, time, n_rhs, n_out, index, n_jac, n_lu, n_steps):
-    status OK, a divergence code of `free_system` (time = where it occurred)
-    or STEP_COLLAPSE."""
+    status OK, a divergence code of `free_system` (time = where it occurred),
+    STEP_COLLAPSE or INTERRUPTED (time = the last accepted step)."""
     Cc, Ee, Tt, TIt, Pp = tab
     nx = x0.shape[0]
     n = nx // 2
@@ -415,6 +419,9 @@ def radau5(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, prob, rw
             for i in range(nx):
                 Y[n_out, i] = y_old[i] + Q[i, 0] * xx + Q[i, 1] * xx * xx + Q[i, 2] * xx * xx * xx
             n_out += 1
+        control[TIME_REACHED] = t
+        if control[STOP_REQUEST] != 0.0 and t < tmax:
+            return INTERRUPTED, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
     return OK, t, nfev + counts[0], n_out, -1, counts[1], n_lu, n_steps
 
 

@@ -171,8 +171,8 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
     rhs_M_F(t, q, qd) -> (M, F), or a `CompiledRHS`. bounds: (n,) maximum
     |q| per coordinate (inf = unbounded) used for divergence detection.
     progress: optional progress(t, tmax) called every 64 right-hand-side
-    evaluations of the scipy methods (compiled-DOP853 runs in the kernel and
-    reports nothing until it returns)."""
+    evaluations of the scipy methods, about every quarter second of the
+    compiled ones (which run in a watched thread, `watch.run_watched`)."""
     n = len(q0)
     t_eval = np.arange(0.0, tmax + 0.5 * dt, dt)
     t_eval = t_eval[t_eval <= tmax + 1e-12]
@@ -187,7 +187,7 @@ def integrate(rhs_M_F, q0, qd0, tmax, dt, *, method="DOP853", rtol=1e-8, atol=No
                                    "polynomial in time (and every load effect in compiled form)",
                                    field="solver.method")
             return _integrate_compiled(rhs_M_F, x0, t_eval, float(tmax), rtol, atol, max_step, qb,
-                                       stiffness_ratio, method)
+                                       stiffness_ratio, method, progress)
         return _integrate_scipy(rhs_M_F, x0, t_eval, tmax, method, rtol, atol, max_step, qb, stiffness_ratio,
                                 progress)
 
@@ -242,10 +242,11 @@ def _beyond(i):
 
 
 def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, stiffness_ratio,
-                        method=COMPILED_DOP853) -> Integration:
+                        method=COMPILED_DOP853, progress=None) -> Integration:
     """compiled-DOP853, compiled-RK45 or compiled-Radau: the method entirely
     in the kernel (same algorithm and tolerances as solve_ivp's DOP853 /
-    RK45 / Radau)."""
+    RK45 / Radau), in a thread that this one watches (`watch.run_watched`:
+    progress about every quarter second, Ctrl-C stops it after its step)."""
     nx = len(x0)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)     # as scipy validate_tol
     atol = np.broadcast_to(np.asarray(atol, float), (nx,)).copy()
@@ -255,12 +256,15 @@ def _integrate_compiled(rhs, x0, t_eval, tmax, rtol, atol, max_step, bounds, sti
         raise ModeselError("max_step must be positive", field="solver.max_step")
     info = {}
     if method == COMPILED_RADAU:
-        code, t_stop, nfev, idx, Y, info = rhs.radau(x0, t_eval, tmax, rtol, atol, float(max_step), bounds)
+        code, t_stop, nfev, idx, Y, info = rhs.radau(x0, t_eval, tmax, rtol, atol, float(max_step), bounds,
+                                                     progress)
     elif method == COMPILED_RK45:
-        code, t_stop, nfev, idx, Y = rhs.rk45(x0, t_eval, tmax, rtol, atol, float(max_step), bounds)
+        code, t_stop, nfev, idx, Y = rhs.rk45(x0, t_eval, tmax, rtol, atol, float(max_step), bounds, progress)
     else:
         code, t_stop, nfev, idx, Y = rhs.dop853(x0, t_eval, tmax, rtol, atol, float(max_step), bounds,
-                                                _DOP853_TABLE)
+                                                _DOP853_TABLE, progress)
+    if code == kernel.INTERRUPTED:      # only on a stop request, whose exception is on its way
+        raise KeyboardInterrupt
     if code == kernel.STEP_COLLAPSE:
         raise SimulationDiverged("integrator failed (Required step size is less than spacing between numbers.)",
                                  float(t_stop))

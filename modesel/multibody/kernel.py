@@ -737,6 +737,11 @@ def assemble(q, qd, gvec, fnodes, fflag, gen, data, work, M, F, with_kinematics=
 # ------------------------------------------------------------- free coordinates
 # status codes shared with integrate.py
 OK, NON_FINITE_STATE, BEYOND_BOUND, SINGULAR, NON_FINITE_ACC, STEP_COLLAPSE = 0, 1, 2, 3, 4, 5
+#: status of an integration loop stopped on request (its `control`, `watch.run_watched`)
+INTERRUPTED = 6
+#: the slots of an integration loop's `control` array: a stop request (non-zero:
+#: stop after the current step) and the time [s] of the last accepted step
+STOP_REQUEST, TIME_REACHED = 0, 1
 
 
 @njit(cache=True, fastmath=_FAST)
@@ -1082,8 +1087,9 @@ def _stage(system, s, t, h, y, K, ys, A, C, bounds, prob, rwork, data, work):
 DOP853_KIND, RK45_KIND = 0, 1
 
 
-@njit(cache=True)
-def runge_kutta(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob, rwork, data, work, Y):
+@njit(cache=True, nogil=True)
+def runge_kutta(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kind, prob, rwork, data, work, Y,
+                control):
     """An explicit Runge-Kutta pair with the step control and initial step of
     scipy.integrate's RungeKutta, evaluated at t_eval (increasing, within
     [0, tmax]) into Y. One loop for both pairs, so that one compiled
@@ -1098,8 +1104,14 @@ def runge_kutta(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kin
       dense output y + h sum_k (K^T P)_k x^(k+1); tab = (A, B, C, E, E, P) of
       `rk45_tableau`.
 
+    control (2,): after each accepted step the loop writes its time into
+    control[TIME_REACHED] and stops (INTERRUPTED) where control[STOP_REQUEST]
+    is non-zero; it runs without the GIL, so that another thread can watch
+    it (`watch.run_watched`: progress, Ctrl-C).
+
     Returns (status, time, n_rhs, n_out, index): status OK, a divergence code
-    of `free_system` (time = where it occurred) or STEP_COLLAPSE."""
+    of `free_system` (time = where it occurred), STEP_COLLAPSE or INTERRUPTED
+    (time = the last accepted step)."""
     A, B, C, E3, E5, D = tab
     dop = kind == DOP853_KIND
     nx = x0.shape[0]
@@ -1243,4 +1255,7 @@ def runge_kutta(system, x0, t_eval, tmax, rtol, atol, max_step, bounds, tab, kin
         for i in range(nx):
             y[i] = y_new[i]
             f[i] = f_new[i]
+        control[TIME_REACHED] = t
+        if control[STOP_REQUEST] != 0.0 and t < tmax:
+            return INTERRUPTED, t, nfev, n_out, -1
     return OK, t, nfev, n_out, -1

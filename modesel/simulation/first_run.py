@@ -179,7 +179,7 @@ def loop_signatures() -> dict:
     f1, f2, i1 = typeof(np.zeros(1)), typeof(np.zeros((1, 1))), typeof(np.zeros(1, np.int64))
     problem = (kernel.PROB_T, kernel.RWORK_T, kernel.DATA_T, kernel.WORK_T)
     return {"runge_kutta": (system, f1, f1, typeof(1.0), typeof(1.0), f1, typeof(1.0), f1, typeof(tuple(TABLE)),
-                            typeof(kernel.DOP853_KIND)) + problem + (f2,),
+                            typeof(kernel.DOP853_KIND)) + problem + (f2, f1),
             "reaction_loads": (system, typeof(kernel.SOLVE), f1, f2, i1, i1) + problem + (f2,)}
 
 

@@ -156,10 +156,12 @@ def _duration(seconds: float) -> str:
 
 
 def speed_text(simulated_s: float, wall_s: float) -> str:
-    """Simulated seconds per wall second with two significant digits, e.g. '0.23x real time'."""
+    """Simulated seconds per wall second with two significant digits, e.g.
+    '0.23x real time', '170x real time' (not '1.7e+02x')."""
     if wall_s <= 0:
         return "- x real time"
-    return f"{simulated_s / wall_s:.2g}x real time"
+    rate = simulated_s / wall_s
+    return f"{float(f'{rate:.2g}'):g}x real time" if rate < 1e6 else f"{rate:.2g}x real time"
 
 
 class SimulationProgress:
