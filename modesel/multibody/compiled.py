@@ -14,6 +14,12 @@ from modesel.multibody import implicit, kernel, rk45_tableau
 from modesel.multibody.watch import run_watched
 
 
+#: output rows per compiled pass of `CompiledRHS.outputs` (one system evaluation
+#: each: about 0.1 s for steady_08), so that a signal (Ctrl-C) waits at most that
+#: long; the rows are taken in order, the effects' latched state carried across
+OUTPUT_ROWS = 2048
+
+
 def spring_dampers(linear) -> list:
     """Generalised spring-dampers (row, column, k, c[, neutral]) as 5-tuples,
     the neutral position 0 where a term leaves it out (`CompiledRHS`)."""
@@ -177,7 +183,8 @@ class CompiledRHS:
         and free states q, qd (n_t, n_free), in one compiled pass over the
         times: (n_t, len(rows) + len(accelerations) + len(channels)), NaN
         throughout where an evaluation fails. The effects' latched switches
-        advance with the times, as in an integration. Needs all_rows."""
+        advance with the times, as in an integration. Compiled: in passes of
+        OUTPUT_ROWS rows, between which Python handles signals. Needs all_rows."""
         if not self.packed.data[12].all():         # the active mask: every row
             raise ValueError("reactions need a CompiledRHS packed with all_rows=True")
         t = np.array(t, float, ndmin=1)        # a writable copy: the one type the first run compiles for
@@ -189,9 +196,14 @@ class CompiledRHS:
         if len(slots):
             state[self.channel_flag] = 1.0
         try:
-            if self.compilable:
-                code = kernel.reaction_loads(_system(), kernel.SOLVE, t, X, idx, slots, self.prob, self.rwork,
-                                             self.packed.data, self.packed.work, out)
+            if self.compilable:          # in slices of OUTPUT_ROWS: Ctrl-C is handled between them
+                code = kernel.OK
+                for a in range(0, len(t), OUTPUT_ROWS):
+                    b = a + OUTPUT_ROWS
+                    code = kernel.reaction_loads(_system(), kernel.SOLVE, t[a:b], X[a:b], idx, slots, self.prob,
+                                                 self.rwork, self.packed.data, self.packed.work, out[a:b])
+                    if code != kernel.OK:
+                        break
             else:
                 code = kernel.OK
                 for k, tk in enumerate(t):
