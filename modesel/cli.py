@@ -145,14 +145,15 @@ def entry() -> None:
     commands end as Python ends them (their workers, storages and
     temporary folders are finalised at shutdown)."""
     argv = sys.argv[1:]
+    command = command_of(argv)
     code = None
-    if command_of(argv) in QUICK_EXIT:
+    if command in QUICK_EXIT:
         from modesel import forwarding
-        if command_of(argv) in forwarding.SERVED:     # a running `modesel serve` takes it
+        if command in forwarding.SERVED:     # a running `modesel serve` takes it
             code = forwarding.forward(argv)
     if code is None:
         code = main(argv)
-    if command_of(argv) in QUICK_EXIT:
+    if command in QUICK_EXIT:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
@@ -172,10 +173,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in (command,) if command else COMMANDS:
+        module_name = COMMAND_MODULES.get(name, f"modesel.commands.{name}")
         try:
-            module = importlib.import_module(COMMAND_MODULES.get(name, f"modesel.commands.{name}"))
+            module = importlib.import_module(module_name)
         except ModuleNotFoundError as exc:  # command not built yet in this checkout
-            if exc.name != COMMAND_MODULES.get(name, f"modesel.commands.{name}"):
+            if exc.name != module_name:
                 raise
             continue
         module.register(sub)

@@ -34,7 +34,8 @@ Safety:
   next request run locally;
 - no process outlives the command: Ctrl-C or SIGTERM given to the client is
   passed on to the child, which stops as the command by itself does (exit
-  130 or 143; a compiled integration finishes first, as it does by itself);
+  130 or 143; a compiled integration after its current step,
+  `multibody.watch`);
   a client that dies (SIGKILL, a closed terminal) closes the socket, and its
   child gets SIGTERM and ends at most `ORPHAN_GRACE_S` later; the server
   stops its children and waits for them when it stops (Ctrl-C, SIGTERM, or
@@ -187,8 +188,8 @@ class Server:
 
     def close(self) -> None:
         """Remove the socket and stop the children: SIGTERM, and wait for
-        them (a command in a compiled integration stops when it returns, as
-        it would by itself); Ctrl-C or SIGTERM again kills them (SIGKILL).
+        them (a command in a compiled integration stops after its current
+        step, as it would by itself); Ctrl-C or SIGTERM again kills them (SIGKILL).
         Only in the server itself, not in a child."""
         if os.getpid() != self.pid:
             return

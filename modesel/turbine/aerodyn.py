@@ -205,19 +205,21 @@ def read_aerodyn_blade(path: str, polars: PolarSet) -> AeroBlade:
                      crv_angle=crv_angle)
 
 
+#: the modules whose code a cached deck depends on (`deck_cache.cached`'s code)
+_DECK_CODE = (__name__, "modesel.aero.airfoils")
+
+
 def read_aerodyn(path) -> AeroDynDeck:
     """Read an AeroDyn main file and everything it references (see module doc).
     Parsed decks are cached on disk (`modesel.turbine.deck_cache`)."""
-    return cached(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources,
-                  code=(__name__, "modesel.aero.airfoils"))
+    return cached(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources, code=_DECK_CODE)
 
 
 def shared_aerodyn(path) -> AeroDynDeck:
     """`read_aerodyn`, the same object again while the main, blade and airfoil
     files are unchanged (`deck_cache.remembered`): for callers that do not
     change it (the aero effects, built many times by one process)."""
-    return remembered(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources,
-                      code=(__name__, "modesel.aero.airfoils"))
+    return remembered(_read_aerodyn, os.path.abspath(str(path)), files=_aerodyn_sources, code=_DECK_CODE)
 
 
 def _aerodyn_sources(deck: AeroDynDeck) -> list:
