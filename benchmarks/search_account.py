@@ -8,7 +8,7 @@ storage, sampler and objective methods wrapped by timers.
 
 Run: python3 benchmarks/search_account.py STUDY.toml N_SETS N_JOBS [STORAGE_URL]
 (``[budget] stop_when_met`` is turned off; ACCT_CACHE=folder keeps an
-internal reference between runs). Used for the table in the README's search
+internal reference between runs). Used for the table in docs/benchmarks.md, search
 throughput paragraph."""
 import dataclasses, functools, os, sys, tempfile, time
 import multiprocessing as mp

@@ -141,7 +141,7 @@ def entry() -> None:
     after a command of QUICK_EXIT, the output flushed and the process ended
     at once (os._exit) with its exit code. Python's own shutdown, which
     finalises the modules and numba's and LLVM's objects one by one, took
-    0.15 s of a 1.2-s `modesel simulate` (README, Benchmarks). Other
+    0.15 s of a 1.2-s `modesel simulate` (docs/benchmarks.md). Other
     commands end as Python ends them (their workers, storages and
     temporary folders are finalised at shutdown)."""
     argv = sys.argv[1:]
@@ -188,7 +188,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # The engine's matrices have a few hundred rows at most: OpenBLAS worker
     # threads only add synchronisation (measured 40-100 ms instead of 0.3 ms per
-    # right-hand side on a loaded machine, README "Benchmarks"). One thread for
+    # right-hand side on a loaded machine, docs/benchmarks.md). One thread for
     # the whole command (linearize, workers, reports) unless the user set it;
     # effective only before numpy is first imported, as here.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -4,7 +4,7 @@ the commands typed while it runs.
 A fresh `modesel simulate` pays numba's floor before it computes anything:
 Python, numpy and numba imported, numba's target context set up, the
 engine's compiled libraries loaded from numba's on-disk cache (about 0.5 s
-of the 0.85 s a 20-s steady_08 takes, README "Benchmarks"). The server pays
+of the 0.85 s a 20-s steady_08 takes, docs/benchmarks.md). The server pays
 it once: it imports the engine and, for every scene it is asked to run,
 loads that scene's compiled code (a run of one output step, its "warm-up",
 after the scene's first request, or at start for --warm), then waits on a

@@ -497,7 +497,7 @@ def test_inflowwind_output_points(tmp_path, outb_08):
     points (WindVxiList, WindVyiList, WindVziList): steady_08's hub-height
     point equals OpenFAST's output; a second point 30 m higher and 20 m to
     the side follows the power law of the case (PLexp) and has no y or z
-    component. (Against OpenFAST with a wind step and shear 0.2: README,
+    component. (Against OpenFAST with a wind step and shear 0.2: docs/openfast-cases.md,
     within 2.4e-5 m/s.)"""
     out = simulate(load_scene(STEADY_08), tmax=0.2).outputs
     for c in ("Wind1VelX", "Wind1VelY", "Wind1VelZ"):

@@ -23,7 +23,7 @@ tolerances:
   blend the start-up missed GenPwr by -3.47 % and RotSpeed by -0.99 %, and
   both parked cases were refused as statically unstable (the BEM branch
   switching at V_t = 0 under the linearisation's steps; run anyway,
-  parked_storm's RtAeroFxh NRMSE was 38 %, README "Further OpenFAST
+  parked_storm's RtAeroFxh NRMSE was 38 %, docs/openfast-cases.md, "Further OpenFAST
   cases"): means over the last 30 s and NRMSE over the run as above;
 - yaw_release: steady_08 with ElastoDyn's YawDOF on, released from NacYaw
   5 deg against ServoDyn's yaw spring and damper (YawSpr, YawDamp about

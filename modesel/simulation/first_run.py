@@ -27,7 +27,7 @@ invariant route (where used) and the loops, this process the right-hand
 side. A scene with gearbox losses has this process compile their cfunc
 (`multibody.gearbox_loss`) too, when its right-hand side is packed (the
 child's share, the loads, is the longer). All land in numba's cache, from
-which the simulation then loads them. Timings: README, Benchmarks.
+which the simulation then loads them. Timings: docs/benchmarks.md.
 
 `index_files` and `is_cold` tell whether a module's compiled functions are
 in numba's cache yet (`simulation.progress` uses them for its notice).

@@ -25,7 +25,7 @@ from modesel.multibody.integrate import explicit_method, runs_compiled
 REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "studies" / "scenes"
 #: integrate.choose_method: explicit below this stiffness ratio, implicit from
-#: it on (the documented rule, README "Stiff and large systems"; written here
+#: it on (the documented rule, docs/benchmarks.md, "Stiff and large systems"; written here
 #: so that a change of the rule shows in the hard cases)
 STIFF_RATIO = 80.0
 
