@@ -41,7 +41,9 @@ What the case's modules become:
   6.7e-5, states 9.3e-4 and 3.7e-4, with 4937 and 7346).
 
 Anything switched on that modesel does not model is a one-line
-`ModeselError` naming the file and the input: BeamDyn or simplified
+`ModeselError` naming the file and the input: blades that differ (a
+BldFile(k) or ADBlFile(k), k <= NumBl, whose parsed values differ from
+blade 1's; modesel's rotor has equal blades), BeamDyn or simplified
 ElastoDyn (CompElast 2, 3), external inflow, AeroDisk or external loads,
 SeaState, HydroDyn, SubDyn, moorings, ice, soil, MHK, mirrored or several
 rotors, ElastoDyn's pitch DOF and platform sway/heave/roll/yaw, furling,
@@ -64,6 +66,20 @@ from modesel.turbine.openfast_inputs import InputFile
 #: integration tolerances of an OpenFAST case, with AeroDyn and without (module doc)
 SOLVER_BEM = {"rtol": 3e-6, "atol": 3e-7}
 SOLVER = {"rtol": 1e-5, "atol": 1e-6}
+
+
+def _equal_aero_blades(ad_deck: InputFile, num_blades: int) -> None:
+    """Refuse, naming ADBlFile(k), an AeroDyn blade k <= NumBl that differs
+    from blade 1 (modesel's rotor has equal blades; OpenFAST reads each)."""
+    from modesel.turbine.aerodyn import shared_aerodyn
+    blades = shared_aerodyn(ad_deck.path).blades
+    names = ("span", "chord", "twist", "airfoil", "crv_ac", "swp_ac", "crv_angle")
+    for k in range(1, min(num_blades, len(blades))):
+        a, b = blades[0], blades[k]
+        if a is not b and not all(np.array_equal(getattr(a, n), getattr(b, n)) for n in names):
+            raise ad_deck.error(f"blade {k + 1} differs from blade 1 ({Path(str(b.source)).name} against "
+                                f"{Path(str(a.source)).name}); modesel models a rotor of equal blades",
+                                f"ADBlFile({k + 1})")
 
 
 def is_fst(path) -> bool:
@@ -152,6 +168,7 @@ def scene_from_fst(path):
         ad_path = f.referenced("AeroFile")
         ad = aerodyn_case_options(ad_path)
         ad_deck = InputFile(ad_path, "AeroDyn")
+        _equal_aero_blades(ad_deck, scene.turbine.num_blades)
         out_list += ad_deck.outlist()
         decks_with_nodal_outputs.append(ad_deck)
         notes += ad["notes"]

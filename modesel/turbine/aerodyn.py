@@ -25,6 +25,7 @@ from modesel.aero.blade import AeroBlade
 from modesel.aero.tower_drag import TowerDrag
 from modesel.aero.tower_influence import POTENTIAL_NAMES, SHADOW_NAMES, check_tower_table
 from modesel.turbine.deck_cache import cached, remembered
+from modesel.turbine.openfast_inputs import TOKEN
 
 #: AeroDyn/OpenFAST defaults for "default" entries: air at sea level (the
 #: OpenFAST glue code's AirDens 1.225 kg/m^3, KinVisc 1.464e-5 m^2/s,
@@ -102,8 +103,19 @@ def _openfast_io_main(path: str) -> dict:
 
 
 def _keyword_lines(path: str) -> list:
+    """The tokens of each line; a quoted file name with blanks is one token."""
     with open(path) as f:
-        return [line.split() for line in f]
+        return [TOKEN.findall(line) for line in f]
+
+
+def _file_names(path: str) -> dict:
+    """AFNames and ADBlFile(1..3) as OpenFAST reads them: quoted names may
+    hold blanks (openfast-io's reader cuts them at the first blank)."""
+    lines = _keyword_lines(path)
+    first, _ = _by_keyword(lines, "AFNames", path)
+    n_af = int(float(_by_keyword(lines, "NumAFfiles", path)[1]))
+    return {"AFNames": [lines[first + k][0].strip('"\'') for k in range(n_af)],
+            "ADBlFile": [_by_keyword(lines, f"ADBlFile({i})", path)[1].strip('"\'') for i in (1, 2, 3)]}
 
 
 def _by_keyword(lines, key, path):
@@ -239,6 +251,7 @@ def _read_aerodyn(path) -> AeroDynDeck:
         notes.append("openfast-io read_AeroDyn does not match this file's layout "
                      f"({type(exc).__name__}: {exc}); fields were looked up by keyword.")
         main = _keyword_main(path)
+    main.update(_file_names(path))
     folder = os.path.dirname(path)
     columns = [int(main[k]) for k in ("InCol_Alfa", "InCol_Cl", "InCol_Cd", "InCol_Cm")]
     af_paths = [os.path.join(folder, p) for p in main["AFNames"]]

@@ -63,6 +63,7 @@ from modesel.errors import ModeselError, did_you_mean
 from modesel.turbine.beam import BeamProperties
 from modesel.turbine.description import Turbine
 from modesel.turbine.deck_cache import cached
+from modesel.turbine.openfast_inputs import TOKEN
 
 from modesel.turbine.builtin import BUILTIN_TURBINES, builtin_elastodyn
 
@@ -157,7 +158,7 @@ def read_elastodyn(path) -> Turbine:
         fst, fst_deck = read_deck(path, "main")
         if "Gravity" in fst_deck.found:
             gravity = _number(fst, "Gravity", "Gravity", fst_deck)
-        ed_path = referenced_file(path, fst["EDFile"], "EDFile")
+        ed_path = referenced_file(path, fst_deck.file_name("EDFile", fst["EDFile"]), "EDFile")
         notes += fst_deck.notes(ignore=("Gravity",))
     else:
         ed_path = path
@@ -189,12 +190,16 @@ def read_elastodyn(path) -> Turbine:
         raise ModeselError(f"GBoxEff must be in (0, 100] %, got {gearbox_efficiency:g}", file=str(ed_path),
                            field="GBoxEff")
 
-    tower_file = referenced_file(ed_path, ed["TwrFile"], "TwrFile")
+    tower_file = referenced_file(ed_path, ed_deck.file_name("TwrFile", ed["TwrFile"]), "TwrFile")
     tower, tower_shapes = _tower(tower_file, tower_height - tower_base)
-    blade_files = [referenced_file(ed_path, ed[f"BldFile{k}"], f"BldFile({k})") for k in per_blade]
+    blade_files = [referenced_file(ed_path, ed_deck.file_name(f"BldFile({k})", ed[f"BldFile{k}"]), f"BldFile({k})")
+                   for k in per_blade]
     blade, blade_shapes = _blade(blade_files[0], tip_radius - hub_radius, hub_radius)
-    if any(f.read_bytes() != blade_files[0].read_bytes() for f in blade_files[1:]):
-        notes.append("blade files differ between blades: modesel uses BldFile(1) for every blade.")
+    for k, other in zip(per_blade[1:], blade_files[1:]):
+        if other.read_bytes() != blade_files[0].read_bytes() and not _same(read_deck(other, "blade")[0],
+                                                                          read_deck(blade_files[0], "blade")[0]):
+            raise ModeselError(f"blade {k} differs from blade 1 ({other.name} against {blade_files[0].name}); "
+                               f"modesel models a rotor of equal blades", file=str(ed_path), field=f"BldFile({k})")
     notes += list(tower.notes) + list(blade.notes)
 
     def deg(value):
@@ -418,6 +423,19 @@ def _coefficients(values: dict, key: str, deck) -> list:
     return [_checked_float(v, f"{key}({k + 2})", deck) for k, v in enumerate(values[key])]
 
 
+def _same(a, b) -> bool:
+    """Whether two parsed deck values are equal (dicts, lists, arrays, numbers, text)."""
+    if isinstance(a, dict) or isinstance(b, dict):
+        return isinstance(a, dict) and isinstance(b, dict) and a.keys() == b.keys() and all(
+            _same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple, np.ndarray)) or isinstance(b, (list, tuple, np.ndarray)):
+        try:
+            return np.array_equal(np.asarray(a), np.asarray(b))
+        except (TypeError, ValueError):
+            return False
+    return a == b
+
+
 def referenced_file(parent: Path, name: str, label: str) -> Path:
     """A file named in `parent` (relative names are relative to parent's folder)."""
     name = str(name).strip()
@@ -494,7 +512,7 @@ class Deck:
         self.outlist_at = None
         self.defaulted = []
         for i, line in enumerate(self.lines[2:], start=2):
-            tokens = line.split()
+            tokens = TOKEN.findall(line)      # a quoted file name with blanks is one token
             if tokens and tokens[0] == "OutList":
                 self.outlist_at = i
                 break
@@ -509,6 +527,12 @@ class Deck:
     def value(self, label: str) -> str:
         """The deck's value text of `label` ('' when absent)."""
         return self.found.get(label, (None, ""))[1]
+
+    def file_name(self, label: str, read: str) -> str:
+        """The file name of `label` as OpenFAST reads it: the quoted text,
+        blanks included (openfast-io's `read` value is cut at the first blank)."""
+        text = self.value(label).strip()
+        return text[1:-1] if len(text) > 1 and text[0] == text[-1] and text[0] in "\"'" else read
 
     def notes(self, ignore=()) -> list:
         names = [d for d in self.defaulted if d not in ignore]

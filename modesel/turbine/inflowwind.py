@@ -48,7 +48,11 @@ def read_inflowwind(path, tmax: float | None = None) -> dict:
         ref = f.number("RefHt")
         if ref <= 0:
             raise f.error(f"must be > 0, got {ref:g}", "RefHt")
-        return {"speed": f.number("HWindSpeed"), "shear": f.number("PLexp", "PLExp"),
+        speed = f.number("HWindSpeed")
+        if not speed > 0:       # as InflowWind (InflowWind_Subs.f90): a wind from behind is PropagationDir 180
+            raise f.error(f"must be > 0 m/s for a steady wind, as InflowWind requires, got {speed:g} "
+                          f"(a wind from behind is PropagationDir = 180)", "HWindSpeed")
+        return {"speed": speed, "shear": f.number("PLexp", "PLExp"),
                 "reference_height": ref, "direction_deg": direction, **extra}
     if f.flag("VelInterpCubic", default=False):
         raise f.unsupported("VelInterpCubic", "cubic interpolation in time")

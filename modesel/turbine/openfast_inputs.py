@@ -17,6 +17,8 @@ from modesel.errors import ModeselError
 
 _LABEL = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\(\d+\))?$")
 _WORDS = {"true", "false", "t", "f", "default", "unused", "none"}
+#: a token of a line: a quoted string (a file name may hold blanks, as OpenFAST reads it) or a word
+TOKEN = re.compile(r"\"[^\"]*\"|'[^']*'|\S+")
 
 
 class InputFile:
@@ -34,7 +36,7 @@ class InputFile:
         self.values = {}          # label -> (line index, value text)
         self.outlist_at = None    # line index of the first OutList header
         for i, line in enumerate(self.lines):
-            tokens = line.split()
+            tokens = TOKEN.findall(line)      # a quoted value is one token, blanks and all
             if not tokens:
                 continue
             if tokens[0] in ("OutList", "OutList_Nodal"):
