@@ -70,16 +70,14 @@ SOLVER = {"rtol": 1e-5, "atol": 1e-6}
 
 def _equal_aero_blades(ad_deck: InputFile, num_blades: int) -> None:
     """Refuse, naming ADBlFile(k), an AeroDyn blade k <= NumBl that differs
-    from blade 1 (modesel's rotor has equal blades; OpenFAST reads each)."""
+    from blade 1 (`AeroDynDeck.differing_blade`)."""
     from modesel.turbine.aerodyn import shared_aerodyn
-    blades = shared_aerodyn(ad_deck.path).blades
-    names = ("span", "chord", "twist", "airfoil", "crv_ac", "swp_ac", "crv_angle")
-    for k in range(1, min(num_blades, len(blades))):
-        a, b = blades[0], blades[k]
-        if a is not b and not all(np.array_equal(getattr(a, n), getattr(b, n)) for n in names):
-            raise ad_deck.error(f"blade {k + 1} differs from blade 1 ({Path(str(b.source)).name} against "
-                                f"{Path(str(a.source)).name}); modesel models a rotor of equal blades",
-                                f"ADBlFile({k + 1})")
+    deck = shared_aerodyn(ad_deck.path)
+    k = deck.differing_blade(num_blades)
+    if k is not None:
+        raise ad_deck.error(f"blade {k} differs from blade 1 ({Path(str(deck.blades[k - 1].source)).name} against "
+                            f"{Path(str(deck.blade.source)).name}); modesel models a rotor of equal blades",
+                            f"ADBlFile({k})")
 
 
 def is_fst(path) -> bool:

@@ -68,8 +68,19 @@ class AeroDynDeck:
 
     @property
     def blade(self) -> AeroBlade:
-        """The first blade (all blades of the bundled decks are identical)."""
+        """The first blade (modesel's rotor has equal blades: `differing_blade`)."""
         return self.blades[0]
+
+    def differing_blade(self, num_blades: int) -> int | None:
+        """The first blade k in 2..num_blades (ADBlFile(k)) whose stations
+        differ from blade 1's, or None: modesel models a rotor of equal blades
+        (OpenFAST reads each blade's file)."""
+        first = self.blades[0]
+        names = ("span", "chord", "twist", "airfoil", "crv_ac", "swp_ac", "crv_angle")
+        for k, other in enumerate(self.blades[1:num_blades], start=2):
+            if other is not first and not all(np.array_equal(getattr(first, n), getattr(other, n)) for n in names):
+                return k
+        return None
 
 
 def _openfast_io_main(path: str) -> dict:

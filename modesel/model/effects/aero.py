@@ -134,7 +134,12 @@ def aerodyn_deck(effect):
     # kept while its files are unchanged (kept by path alone, a warm server's
     # commands ran the deck as it was at the server's first run)
     from modesel.turbine.aerodyn import shared_aerodyn
-    return shared_aerodyn(path)
+    deck = shared_aerodyn(path)
+    k = deck.differing_blade(effect.scene.turbine.num_blades)
+    if k is not None:
+        raise ModeselError(f"blade {k} differs from blade 1 (modesel models a rotor of equal blades)", file=path,
+                           field=f"ADBlFile({k})")
+    return deck
 
 
 def wind_of(effect, built):
