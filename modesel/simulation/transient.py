@@ -100,8 +100,14 @@ def _simulate(scene, modeset, tmax, dt, progress, wanted=None) -> SimulationResu
     lam = eigenvalues(lin)
     if scene.solver.get("stability_check", True):
         check_static_stability(lin, file=scene.path, fields=coordinate_fields(names), lam=lam)
-    # oscillatory modes only: a free rotor's speed mode is real (non-oscillating)
-    omegas = np.array([2 * np.pi * f for f, zeta in spectrum(lin, lam=lam) if abs(zeta) < 1.0])
+    # oscillatory modes set the ratio (a free rotor's slow speed mode is real, not stiff) ...
+    modes = spectrum(lin, lam=lam)
+    omegas = np.array([2 * np.pi * f for f, zeta in modes if abs(zeta) < 1.0])
+    # ... and a decaying real mode faster than all of them is stiff too (an overdamped
+    # drivetrain: GBRatio 1, |lambda| 1.2e4 1/s, which compiled-RK45 crawled through at 0.8x real time)
+    fastest = max((2 * np.pi * f for f, zeta in modes if zeta >= 1.0), default=0.0)
+    if len(omegas) and fastest > omegas.max():
+        omegas = np.append(omegas, fastest)
     method, ratio = choose_method(omegas if len(omegas) else np.array([1.0]), requested, rhs,
                                   scene.solver.get("rtol"), kinked=built.kinked)
     rtol, atol = default_tolerances(method)
