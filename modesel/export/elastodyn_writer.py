@@ -109,8 +109,8 @@ def read_raw_deck(path) -> RawDeck:
         raise ModeselError("turbine deck not found", file=str(path))
     inputs = [path]
     if has_label(path, "EDFile"):
-        fst, fst_deck = read_deck(path, "main")
-        path = referenced_file(path, fst_deck.file_name("EDFile", fst["EDFile"]), "EDFile")
+        _, fst_deck = read_deck(path, "main")
+        path = referenced_file(path, fst_deck.file_name("EDFile"), "EDFile")
         inputs.append(path)
     deck = Deck(path, "elastodyn")
     text = deck.normalised()
@@ -135,14 +135,13 @@ def read_raw_deck(path) -> RawDeck:
     if ed.get("Furling") is True:
         ed["FurlFile"] = str(referenced_file(path, os.path.basename(ed["FurlFile"]), "FurlFile").resolve())
 
-    tower_path = referenced_file(path, deck.file_name("TwrFile", ed["TwrFile"]), "TwrFile")
+    tower_path = referenced_file(path, deck.file_name("TwrFile"), "TwrFile")
     tower, tower_deck = read_deck(tower_path, "tower")
     notes += tower_deck.notes()
     inputs.append(tower_path)
     blades, blade_of, seen = [], [], {}
     for k in range(1, int(ed["NumBl"]) + 1):
-        blade_path = referenced_file(path, deck.file_name(f"BldFile({k})", ed[f"BldFile{k}"]),
-                                     f"BldFile({k})").resolve()
+        blade_path = referenced_file(path, deck.file_name(f"BldFile({k})"), f"BldFile({k})").resolve()
         if blade_path not in seen:
             blade, blade_deck = read_deck(blade_path, "blade")
             notes += blade_deck.notes()

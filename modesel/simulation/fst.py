@@ -68,18 +68,6 @@ SOLVER_BEM = {"rtol": 3e-6, "atol": 3e-7}
 SOLVER = {"rtol": 1e-5, "atol": 1e-6}
 
 
-def _equal_aero_blades(ad_deck: InputFile, num_blades: int) -> None:
-    """Refuse, naming ADBlFile(k), an AeroDyn blade k <= NumBl that differs
-    from blade 1 (`AeroDynDeck.differing_blade`)."""
-    from modesel.turbine.aerodyn import shared_aerodyn
-    deck = shared_aerodyn(ad_deck.path)
-    k = deck.differing_blade(num_blades)
-    if k is not None:
-        raise ad_deck.error(f"blade {k} differs from blade 1 ({Path(str(deck.blades[k - 1].source)).name} against "
-                            f"{Path(str(deck.blade.source)).name}); modesel models a rotor of equal blades",
-                            f"ADBlFile({k})")
-
-
 def is_fst(path) -> bool:
     """Whether `path` is an OpenFAST main file (it names an EDFile)."""
     try:
@@ -166,7 +154,6 @@ def scene_from_fst(path):
         ad_path = f.referenced("AeroFile")
         ad = aerodyn_case_options(ad_path)
         ad_deck = InputFile(ad_path, "AeroDyn")
-        _equal_aero_blades(ad_deck, scene.turbine.num_blades)
         out_list += ad_deck.outlist()
         decks_with_nodal_outputs.append(ad_deck)
         notes += ad["notes"]

@@ -68,19 +68,20 @@ class AeroDynDeck:
 
     @property
     def blade(self) -> AeroBlade:
-        """The first blade (modesel's rotor has equal blades: `differing_blade`)."""
+        """The first blade (modesel's rotor has equal blades: `check_equal_blades`)."""
         return self.blades[0]
 
-    def differing_blade(self, num_blades: int) -> int | None:
-        """The first blade k in 2..num_blades (ADBlFile(k)) whose stations
-        differ from blade 1's, or None: modesel models a rotor of equal blades
-        (OpenFAST reads each blade's file)."""
+    def check_equal_blades(self, num_blades: int) -> None:
+        """Refuse, naming ADBlFile(k), a blade k in 2..num_blades whose stations
+        differ from blade 1's: modesel models a rotor of equal blades (OpenFAST
+        reads each blade's file)."""
         first = self.blades[0]
         names = ("span", "chord", "twist", "airfoil", "crv_ac", "swp_ac", "crv_angle")
         for k, other in enumerate(self.blades[1:num_blades], start=2):
             if other is not first and not all(np.array_equal(getattr(first, n), getattr(other, n)) for n in names):
-                return k
-        return None
+                raise ModeselError(f"blade {k} differs from blade 1 ({os.path.basename(str(other.source))} against "
+                                   f"{os.path.basename(str(first.source))}); modesel models a rotor of equal blades",
+                                   file=self.source, field=f"ADBlFile({k})")
 
 
 def _openfast_io_main(path: str) -> dict:
@@ -100,8 +101,6 @@ def _openfast_io_main(path: str) -> dict:
     out["SkewCorr"] = ad.get("Skew_Mod") == 1 and ad.get("SkewRedistr_Mod") == 1
     out["UseBlCm"] = ad.get("UseBlCm", True)
     out["SkewModFactor"] = ad.get("SkewRedistrFactor", "default")
-    out["AFNames"] = list(ad["AFNames"])
-    out["ADBlFile"] = [ad[f"ADBlFile{i}"] for i in (1, 2, 3)]
     out["tower"] = np.array([ad["TwrElev"], ad["TwrDiam"], ad["TwrCd"]], float).T
     ti = ad.get("TwrTI")
     out["TwrTI"] = None if ti is None or any(v is None for v in ti) else np.asarray(ti, float)
@@ -119,10 +118,10 @@ def _keyword_lines(path: str) -> list:
         return [TOKEN.findall(line) for line in f]
 
 
-def _file_names(path: str) -> dict:
-    """AFNames and ADBlFile(1..3) as OpenFAST reads them: quoted names may
-    hold blanks (openfast-io's reader cuts them at the first blank)."""
-    lines = _keyword_lines(path)
+def _file_names(lines: list, path: str) -> dict:
+    """AFNames and ADBlFile(1..3) from a file's `_keyword_lines`, as OpenFAST
+    reads them: quoted names may hold blanks (openfast-io's reader cuts them
+    at the first blank)."""
     first, _ = _by_keyword(lines, "AFNames", path)
     n_af = int(float(_by_keyword(lines, "NumAFfiles", path)[1]))
     return {"AFNames": [lines[first + k][0].strip('"\'') for k in range(n_af)],
@@ -156,11 +155,7 @@ def _keyword_main(path: str) -> dict:
         out["SkewCorr"] = found.get("Skew_Mod") == "1" and found.get("SkewRedistr_Mod", "1") == "1"
     out["SkewModFactor"] = found.get("SkewModFactor", found.get("SkewRedistrFactor", "default"))
     out["UseBlCm"] = found.get("UseBlCm", "True")
-    n_af = int(out["NumAFfiles"])
-    first, _ = _by_keyword(lines, "AFNames", path)
-    out["AFNames"] = [lines[first + k][0].strip('"\'') for k in range(n_af)]
-    out["ADBlFile"] = [_by_keyword(lines, f"ADBlFile({i})", path)[1].strip('"\'')
-                       for i in (1, 2, 3)]
+    out.update(_file_names(lines, path))
     out["TwrTI"] = None
     try:
         row, n_twr = _by_keyword(lines, "NumTwrNds", path)
@@ -262,7 +257,8 @@ def _read_aerodyn(path) -> AeroDynDeck:
         notes.append("openfast-io read_AeroDyn does not match this file's layout "
                      f"({type(exc).__name__}: {exc}); fields were looked up by keyword.")
         main = _keyword_main(path)
-    main.update(_file_names(path))
+    else:
+        main.update(_file_names(_keyword_lines(path), path))
     folder = os.path.dirname(path)
     columns = [int(main[k]) for k in ("InCol_Alfa", "InCol_Cl", "InCol_Cd", "InCol_Cm")]
     af_paths = [os.path.join(folder, p) for p in main["AFNames"]]

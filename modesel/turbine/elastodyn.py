@@ -158,7 +158,7 @@ def read_elastodyn(path) -> Turbine:
         fst, fst_deck = read_deck(path, "main")
         if "Gravity" in fst_deck.found:
             gravity = _number(fst, "Gravity", "Gravity", fst_deck)
-        ed_path = referenced_file(path, fst_deck.file_name("EDFile", fst["EDFile"]), "EDFile")
+        ed_path = referenced_file(path, fst_deck.file_name("EDFile"), "EDFile")
         notes += fst_deck.notes(ignore=("Gravity",))
     else:
         ed_path = path
@@ -190,14 +190,15 @@ def read_elastodyn(path) -> Turbine:
         raise ModeselError(f"GBoxEff must be in (0, 100] %, got {gearbox_efficiency:g}", file=str(ed_path),
                            field="GBoxEff")
 
-    tower_file = referenced_file(ed_path, ed_deck.file_name("TwrFile", ed["TwrFile"]), "TwrFile")
+    tower_file = referenced_file(ed_path, ed_deck.file_name("TwrFile"), "TwrFile")
     tower, tower_shapes = _tower(tower_file, tower_height - tower_base)
-    blade_files = [referenced_file(ed_path, ed_deck.file_name(f"BldFile({k})", ed[f"BldFile{k}"]), f"BldFile({k})")
+    blade_files = [referenced_file(ed_path, ed_deck.file_name(f"BldFile({k})"), f"BldFile({k})")
                    for k in per_blade]
     blade, blade_shapes = _blade(blade_files[0], tip_radius - hub_radius, hub_radius)
+    first_values = read_deck(blade_files[0], "blade")[0]
     for k, other in zip(per_blade[1:], blade_files[1:]):
         if other.read_bytes() != blade_files[0].read_bytes() and not _same(read_deck(other, "blade")[0],
-                                                                          read_deck(blade_files[0], "blade")[0]):
+                                                                          first_values):
             raise ModeselError(f"blade {k} differs from blade 1 ({other.name} against {blade_files[0].name}); "
                                f"modesel models a rotor of equal blades", file=str(ed_path), field=f"BldFile({k})")
     notes += list(tower.notes) + list(blade.notes)
@@ -528,11 +529,10 @@ class Deck:
         """The deck's value text of `label` ('' when absent)."""
         return self.found.get(label, (None, ""))[1]
 
-    def file_name(self, label: str, read: str) -> str:
-        """The file name of `label` as OpenFAST reads it: the quoted text,
-        blanks included (openfast-io's `read` value is cut at the first blank)."""
-        text = self.value(label).strip()
-        return text[1:-1] if len(text) > 1 and text[0] == text[-1] and text[0] in "\"'" else read
+    def file_name(self, label: str) -> str:
+        """The file name of `label` as OpenFAST reads it: the value without its
+        quotes, blanks included (openfast-io's value is cut at the first blank)."""
+        return self.value(label).strip().strip("\"'")
 
     def notes(self, ignore=()) -> list:
         names = [d for d in self.defaulted if d not in ignore]

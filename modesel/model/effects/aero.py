@@ -135,10 +135,7 @@ def aerodyn_deck(effect):
     # commands ran the deck as it was at the server's first run)
     from modesel.turbine.aerodyn import shared_aerodyn
     deck = shared_aerodyn(path)
-    k = deck.differing_blade(effect.scene.turbine.num_blades)
-    if k is not None:
-        raise ModeselError(f"blade {k} differs from blade 1 (modesel models a rotor of equal blades)", file=path,
-                           field=f"ADBlFile({k})")
+    deck.check_equal_blades(effect.scene.turbine.num_blades)
     return deck
 
 
